@@ -1,0 +1,8 @@
+//! Host harness for `sledid`: recordings, replay, float64 references, the sled twin, the paper's study.
+#![forbid(unsafe_code)]
+
+pub mod compare;
+pub mod plants;
+pub mod recording;
+pub mod reference;
+pub mod twin;

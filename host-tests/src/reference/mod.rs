@@ -1,0 +1,13 @@
+//! Float64 reference implementations of every estimator in the library, written the textbook way,
+//! so the fixed-point path has something exact to be measured against.
+//!
+//! - [`rls::RlsF64`]: the covariance-form RLS `P ← (P − K ψᵀP)/λ`, re-symmetrised every update, with
+//!   the same gates (dead zone, excitation, hold) and covariance limits as [`sledid::rls`].
+//! - [`linear::LinearF64`]: ARX / OE (pseudo-linear and prediction-error) with the same regressors,
+//!   the same a-priori/a-posteriori convention and the same stability projection as [`sledid::linear`].
+//! - [`batch`]: batch least squares and simulation of a linear model (the exact optimum and the
+//!   simulation RMS reported by the study).
+
+pub mod batch;
+pub mod linear;
+pub mod rls;

@@ -1,0 +1,184 @@
+//! Bench image for on-target cost: each `bench_*` function runs one call of a kernel on state kept in
+//! a static, for `shared/tools/count_insns.py` (instructions and estimated cycles per call on
+//! Cortex-M4F and M0+). `bench_overhead` has the same scaffolding and an empty body: subtract it.
+//!
+//! Built for the host, `main` runs every scenario a few thousand times and prints the final θ
+//! (a smoke test that the scenarios are meaningful, not a measurement).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+use sledid::fixed::{ParamI12F20, SignalI16F16};
+use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
+use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
+
+/// Length of the input tables (calls cycle through them).
+const TABLE: usize = 64;
+
+/// A deterministic pseudo-random table of I16F16 values in ±`amp_i16f16`.
+const fn table(seed: u32, amp_i16f16: i32) -> [i32; TABLE] {
+    let mut t = [0i32; TABLE];
+    let mut x = seed;
+    let mut i = 0;
+    while i < TABLE {
+        x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        let r = ((x >> 8) as i32 & 0xFFFF) - 0x8000; // ±2^15
+        t[i] = (r as i64 * amp_i16f16 as i64 / 0x8000) as i32;
+        i += 1;
+    }
+    t
+}
+
+/// Regressor entries (a few quanta, as on the centred sled data) and inputs (±0.5 of full scale).
+static PSI_TABLE: [i32; TABLE] = table(1, 3 << 16);
+static U_TABLE: [i32; TABLE] = table(2, 1 << 15);
+static Y_TABLE: [i32; TABLE] = table(3, 2 << 16);
+
+fn at(t: &[i32; TABLE], i: u32) -> SignalI16F16 {
+    SignalI16F16::from_raw(t.get(i as usize % TABLE).copied().unwrap_or(0))
+}
+
+/// The RLS design the cost figures are for: λ = 0.99 (the reference point's setting), trace limit.
+fn rls_design() -> RlsDesign {
+    RlsDesign {
+        lambda: 0.99,
+        p0: 100.0,
+        anti_windup: AntiWindup::TraceLimit { max: 1.0e4 },
+        ..RlsDesign::default()
+    }
+}
+
+/// One bare RLS kernel update with N parameters.
+pub struct RlsBench<const N: usize> {
+    config: RlsConfig,
+    state: RlsState<N>,
+}
+
+impl<const N: usize> RlsBench<N> {
+    /// Builds the scenario; `None` if the design were invalid (it is not).
+    pub fn new() -> Option<Self> {
+        let config = rls_design().build().ok()?;
+        let state = RlsState::new(&config, [ParamI12F20::ZERO; N]);
+        Some(Self { config, state })
+    }
+
+    /// Call `i`: one update with table-driven ψ and ε.
+    pub fn call(&mut self, i: u32) -> u16 {
+        let mut psi = [SignalI16F16::ZERO; N];
+        for (k, p) in psi.iter_mut().enumerate() {
+            *p = at(&PSI_TABLE, i.wrapping_add(k as u32 * 7));
+        }
+        self.config.update(&mut self.state, &psi, at(&Y_TABLE, i)).bits()
+    }
+}
+
+/// One full ARX(na, nb) step (regressor, prediction, update) with N parameters.
+pub struct ArxBench<const N: usize> {
+    config: LinearConfig<N>,
+    state: LinearState<N>,
+}
+
+impl<const N: usize> ArxBench<N> {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let mut d = LinearDesign::<N>::new(Structure::Arx, N / 2, N - N / 2);
+        d.rls = rls_design();
+        let config = d.build().ok()?;
+        let state = config.new_state();
+        Some(Self { config, state })
+    }
+
+    /// Call `i`.
+    pub fn call(&mut self, i: u32) -> u16 {
+        self.config
+            .step(&mut self.state, at(&Y_TABLE, i), at(&U_TABLE, i))
+            .status
+            .bits()
+    }
+}
+
+#[cfg(target_os = "none")]
+mod target {
+    use super::{ArxBench, RlsBench};
+    use core::cell::RefCell;
+    use critical_section::Mutex;
+    use cortex_m_rt::entry;
+
+    static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
+    static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
+    static ARX4: Mutex<RefCell<Option<ArxBench<4>>>> = Mutex::new(RefCell::new(None));
+
+    /// Initialises every scenario (`--init bench_init`).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_init() {
+        critical_section::with(|cs| {
+            RLS2.borrow(cs).replace(RlsBench::new());
+            RLS4.borrow(cs).replace(RlsBench::new());
+            ARX4.borrow(cs).replace(ArxBench::new());
+        });
+    }
+
+    /// The scaffolding alone (critical section, RefCell borrow), to subtract.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_overhead(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            RLS2.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| u32::from(core::hint::black_box(b as *mut _ as usize != 0)) + i)
+        })
+    }
+
+    /// One RLS update, n = 2.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_rls2_update(i: u32) -> u32 {
+        critical_section::with(|cs| RLS2.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+    }
+
+    /// One RLS update, n = 4.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_rls4_update(i: u32) -> u32 {
+        critical_section::with(|cs| RLS4.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+    }
+
+    /// One ARX(2,2) step: regressor, prediction, RLS update, projection.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_arx4_step(i: u32) -> u32 {
+        critical_section::with(|cs| ARX4.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+    }
+
+    #[entry]
+    fn main() -> ! {
+        bench_init();
+        let mut i = 0u32;
+        loop {
+            core::hint::black_box(bench_rls2_update(i) + bench_rls4_update(i) + bench_arx4_step(i));
+            core::hint::black_box(bench_overhead(i));
+            i = i.wrapping_add(1);
+        }
+    }
+
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo) -> ! {
+        loop {
+            cortex_m::asm::udf();
+        }
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    let (Some(mut r2), Some(mut r4), Some(mut a4)) =
+        (RlsBench::<2>::new(), RlsBench::<4>::new(), ArxBench::<4>::new())
+    else {
+        eprintln!("bench scenarios failed to build");
+        std::process::exit(1);
+    };
+    for i in 0..5000 {
+        r2.call(i);
+        r4.call(i);
+        a4.call(i);
+    }
+    println!("rls2 θ = {:?}", r2.state.theta());
+    println!("rls4 θ = {:?}", r4.state.theta());
+    println!("arx4 θ = {:?}", a4.state.theta());
+    println!("Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md).");
+}

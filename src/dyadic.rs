@@ -1,0 +1,393 @@
+//! Positive dyadic numbers `m · 2^e` with a normalised 32-bit mantissa: the wide-range scalars of the
+//! UD estimator (the diagonal factor D of the covariance, the Bierman innovation variances α and their
+//! reciprocals), held in integers.
+//!
+//! # Why
+//! The RLS covariance of closed-loop sled data spans about 2^50 (from P₀ = 10⁴·I to trace ≈ 10⁻¹⁵ when
+//! converged, `shared/findings.md`) and grows without bound under forgetting when the excitation
+//! vanishes. No single fixed-point format holds that. A per-number exponent does, and costs one
+//! count-leading-zeros per operation: the value keeps 32 significant bits over any magnitude.
+//!
+//! # Formats
+//! | quantity | representation | range | step |
+//! |---|---|---|---|
+//! | [`Dyadic`] | `mant · 2^exp`, `mant` in `[2^31, 2^32)` or 0 | `[2^(EXP_MIN+31), 2^(EXP_MAX+32))` | 2⁻³² relative |
+//!
+//! # Scaling and overflow
+//! Exponents saturate at [`EXP_MIN`]/[`EXP_MAX`] (|e| ≤ 2¹⁴, so ≈ 10^±4900: far beyond any covariance
+//! that still means something); [`Dyadic::is_saturated`] tells. Multiplication and addition truncate
+//! toward zero (error < 2⁻³¹ relative); [`Dyadic::recip`] is exact: `floor(2^63 / mant)`.
+//!
+//! # Accuracy
+//! Relative error of `mul`/`add` ≤ 2⁻³¹, `recip` ≤ 2⁻³¹, asserted against `f64` by the unit tests below.
+//!
+//! # Cost
+//! `mul` is one 32×32→64 multiply and a one-bit normalisation; `add` an alignment shift and a
+//! leading-zero count; `recip` a 256-entry table lookup, two Newton steps and a ±1 correction
+//! (no division instruction, no 64-bit division).
+
+/// Smallest exponent; values below `2^(EXP_MIN+31)` flush to the smallest positive number or zero.
+pub const EXP_MIN: i32 = -16_384;
+/// Largest exponent; larger values saturate to the largest representable number.
+pub const EXP_MAX: i32 = 16_384;
+
+/// A non-negative number `mant · 2^exp` with `mant == 0` or `2^31 ≤ mant < 2^32`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Dyadic {
+    mant: u32,
+    exp: i32,
+}
+
+/// Seed table for [`Dyadic::recip`]: `T[i] ≈ 2^15 · 512 / (256 + i + ½)`, i.e. 1/m̄ in U1F15 for the
+/// mantissa interval starting at `(256 + i) / 512`. Built at compile time.
+#[allow(clippy::indexing_slicing)] // compile-time evaluation: i < 256 by the loop bound
+const RECIP_SEED_U1F15: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut i = 0;
+    while i < 256 {
+        // 2^15 · 512 / (256 + i + 0.5) = 2^25 / (512 + 2i + 1) · 2, rounded.
+        let den = 512 + 2 * i as u32 + 1;
+        t[i] = (((1u32 << 25) + den / 2) / den) as u16;
+        i += 1;
+    }
+    t
+};
+
+impl Dyadic {
+    /// Zero.
+    pub const ZERO: Self = Self { mant: 0, exp: 0 };
+    /// One.
+    pub const ONE: Self = Self {
+        mant: 1 << 31,
+        exp: -31,
+    };
+    /// The largest representable value (saturation).
+    pub const MAX: Self = Self {
+        mant: u32::MAX,
+        exp: EXP_MAX,
+    };
+    /// The smallest positive value.
+    pub const MIN_POSITIVE: Self = Self {
+        mant: 1 << 31,
+        exp: EXP_MIN,
+    };
+
+    /// The mantissa: 0 or in `[2^31, 2^32)`.
+    pub const fn mant(self) -> u32 {
+        self.mant
+    }
+
+    /// The binary exponent.
+    pub const fn exp(self) -> i32 {
+        self.exp
+    }
+
+    /// True for zero.
+    pub const fn is_zero(self) -> bool {
+        self.mant == 0
+    }
+
+    /// True when the exponent reached its upper limit (the value is not trustworthy).
+    pub const fn is_saturated(self) -> bool {
+        self.exp >= EXP_MAX
+    }
+
+    /// `m · 2^exp` for any 64-bit `m`, normalised (truncating the bits below the 32 kept).
+    pub const fn from_u64(m: u64, exp: i32) -> Self {
+        if m == 0 {
+            return Self::ZERO;
+        }
+        let lz = m.leading_zeros();
+        let top = ((m << lz) >> 32) as u32;
+        Self::clamped(top, exp.saturating_add(32 - lz as i32))
+    }
+
+    /// `m · 2^exp` for a 32-bit `m`.
+    pub const fn from_u32(m: u32, exp: i32) -> Self {
+        if m == 0 {
+            return Self::ZERO;
+        }
+        let lz = m.leading_zeros();
+        Self::clamped(m << lz, exp.saturating_sub(lz as i32))
+    }
+
+    /// Applies the exponent limits to a normalised mantissa.
+    const fn clamped(mant: u32, exp: i32) -> Self {
+        if exp > EXP_MAX {
+            Self::MAX
+        } else if exp < EXP_MIN {
+            Self::MIN_POSITIVE
+        } else {
+            Self { mant, exp }
+        }
+    }
+
+    /// Multiplies by `2^k` (exact, saturating).
+    #[must_use]
+    pub const fn shl(self, k: i32) -> Self {
+        if self.mant == 0 {
+            return self;
+        }
+        Self::clamped(self.mant, self.exp.saturating_add(k))
+    }
+
+    /// `self · rhs`, truncated to 32 significant bits.
+    #[must_use]
+    #[inline]
+    pub const fn mul(self, rhs: Self) -> Self {
+        if self.mant == 0 || rhs.mant == 0 {
+            return Self::ZERO;
+        }
+        // Both mantissas in [2^31, 2^32): the product is in [2^62, 2^64), one bit to normalise.
+        let p = self.mant as u64 * rhs.mant as u64;
+        let e = self.exp.saturating_add(rhs.exp);
+        if p >> 63 != 0 {
+            Self::clamped((p >> 32) as u32, e.saturating_add(32))
+        } else {
+            Self::clamped((p >> 31) as u32, e.saturating_add(31))
+        }
+    }
+
+    /// `self + rhs`, truncated to 32 significant bits.
+    #[must_use]
+    #[inline]
+    pub const fn add(self, rhs: Self) -> Self {
+        if rhs.mant == 0 {
+            return self;
+        }
+        if self.mant == 0 {
+            return rhs;
+        }
+        let (hi, lo) = if self.exp >= rhs.exp {
+            (self, rhs)
+        } else {
+            (rhs, self)
+        };
+        let d = hi.exp.abs_diff(lo.exp);
+        // Each term below 2^63, so the sum fits in 64 bits.
+        let hi_w = (hi.mant as u64) << 31;
+        let lo_w = if d >= 64 {
+            0
+        } else {
+            ((lo.mant as u64) << 31) >> d
+        };
+        Self::from_u64(hi_w + lo_w, hi.exp - 31)
+    }
+
+    /// `self − rhs` if `self ≥ rhs`, else zero (truncated to 32 significant bits).
+    #[must_use]
+    pub const fn saturating_sub(self, rhs: Self) -> Self {
+        if rhs.mant == 0 {
+            return self;
+        }
+        if !rhs.lt(self) {
+            return Self::ZERO;
+        }
+        let d = self.exp.abs_diff(rhs.exp);
+        let hi_w = (self.mant as u64) << 31;
+        let lo_w = if d >= 64 {
+            0
+        } else {
+            ((rhs.mant as u64) << 31) >> d
+        };
+        Self::from_u64(hi_w - lo_w, self.exp - 31)
+    }
+
+    /// `self < rhs`.
+    pub const fn lt(self, rhs: Self) -> bool {
+        if self.mant == 0 {
+            return rhs.mant != 0;
+        }
+        if rhs.mant == 0 {
+            return false;
+        }
+        if self.exp != rhs.exp {
+            return self.exp < rhs.exp;
+        }
+        self.mant < rhs.mant
+    }
+
+    /// `1 / self`, exact to the kept bits (`floor(2^63 / mant)`); the reciprocal of zero saturates.
+    ///
+    /// A 256-entry seed (9 bits), two Newton–Raphson steps (≥ 30 bits) and a final ±1 correction
+    /// against the exact remainder, all in 32×32→64 multiplies.
+    #[must_use]
+    pub const fn recip(self) -> Self {
+        if self.mant == 0 {
+            return Self::MAX;
+        }
+        let m = self.mant as u64;
+        // Seed x ≈ 2^63 / m from the 8 bits after the leading one.
+        let idx = ((self.mant >> 23) & 0xFF) as usize;
+        #[allow(clippy::indexing_slicing)] // idx ≤ 0xFF < 256 by the mask
+        let seed = RECIP_SEED_U1F15[idx];
+        let mut x: u64 = (seed as u64) << 16;
+        // Newton: x ← x + x·(2^63 − m·x)/2^63. m·x < 2^64 while x ≤ 2^33 (always here).
+        let mut k = 0;
+        while k < 2 {
+            // |2^63 − m·x| < 2^62 after the seed, so the wrapped difference is the signed error.
+            let e = (1u64 << 63).wrapping_sub(m * x) as i64;
+            let corr = ((e >> 31) * (x as i64)) >> 32; // e·x / 2^63
+            x = (x as i64 + corr) as u64;
+            k += 1;
+        }
+        // Exact correction: make x = floor(2^63 / m), i.e. 0 ≤ 2^63 − m·x < m.
+        let target = 1u64 << 63;
+        let mut n = 0;
+        while n < 4 {
+            let p = m * x;
+            if p > target {
+                x -= 1;
+            } else if target - p >= m {
+                x += 1;
+            } else {
+                break;
+            }
+            n += 1;
+        }
+        // value = 2^63/m · 2^(−63 − exp)
+        Self::from_u64(x, -63 - self.exp)
+    }
+
+    /// The value as an unsigned U0F32 fraction, saturating at `u32::MAX` for values ≥ 1.
+    pub const fn to_u0f32_saturating(self) -> u32 {
+        if self.mant == 0 {
+            return 0;
+        }
+        // raw = mant · 2^(exp + 32)
+        let s = self.exp + 32;
+        if s > 0 {
+            u32::MAX
+        } else if s == 0 {
+            self.mant
+        } else if s <= -32 {
+            0
+        } else {
+            self.mant >> (-s) as u32
+        }
+    }
+
+    /// From a finite non-negative `f64` (exact for normal numbers: the low bits of the f64 mantissa
+    /// are truncated). `None` for NaN, infinities and negative numbers.
+    pub fn from_f64(x: f64) -> Option<Self> {
+        if !x.is_finite() || x < 0.0 {
+            return None;
+        }
+        if x == 0.0 {
+            return Some(Self::ZERO);
+        }
+        let bits = x.to_bits();
+        let raw_exp = ((bits >> 52) & 0x7FF) as i32;
+        let frac = bits & ((1u64 << 52) - 1);
+        if raw_exp == 0 {
+            // Subnormal: value = frac · 2^-1074.
+            return Some(Self::from_u64(frac, -1074));
+        }
+        // Normal: value = (2^52 + frac) · 2^(raw_exp − 1075).
+        Some(Self::from_u64((1u64 << 52) | frac, raw_exp - 1075))
+    }
+
+    /// To `f64` (rounded to 53 bits; exact for exponents within f64's range, else 0 or ∞).
+    pub fn to_f64(self) -> f64 {
+        if self.mant == 0 {
+            return 0.0;
+        }
+        // mant · 2^exp = (mant / 2^31) · 2^(exp + 31), with mant/2^31 in [1, 2).
+        let e = self.exp + 31;
+        if e > 1023 {
+            return f64::INFINITY;
+        }
+        if e < -1022 {
+            return 0.0;
+        }
+        let frac = ((self.mant as u64) << 21) & ((1u64 << 52) - 1);
+        f64::from_bits((((e + 1023) as u64) << 52) | frac)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rel(a: f64, b: f64) -> f64 {
+        ((a - b) / b).abs()
+    }
+
+    #[test]
+    fn f64_round_trip_is_exact_to_32_bits() {
+        for &x in &[1.0, 0.995, 1e4, 1e-15, 3.0e-300, 7.5e300, 0.1, 123456.789] {
+            let d = Dyadic::from_f64(x).unwrap();
+            assert!(rel(d.to_f64(), x) < 2f64.powi(-31), "{x}");
+        }
+        assert_eq!(Dyadic::from_f64(0.0), Some(Dyadic::ZERO));
+        assert_eq!(Dyadic::from_f64(-1.0), None);
+        assert_eq!(Dyadic::from_f64(f64::NAN), None);
+        assert_eq!(Dyadic::from_f64(f64::INFINITY), None);
+        assert_eq!(Dyadic::ONE.to_f64(), 1.0);
+    }
+
+    #[test]
+    fn recip_is_exact_floor_for_edge_and_sampled_mantissas() {
+        let mut m: u32 = 1 << 31;
+        let mut checked = 0;
+        loop {
+            let d = Dyadic { mant: m, exp: -31 };
+            let r = d.recip();
+            let exact = (1u64 << 63) / u64::from(m);
+            // 1 / (m · 2^-31) = floor(2^63 / m) · 2^(−63 + 31) to the kept bits.
+            let back = Dyadic::from_u64(exact, -63 + 31);
+            assert_eq!(r, back, "m = {m:#x}");
+            checked += 1;
+            if m >= u32::MAX - 7_919_993 {
+                break;
+            }
+            m += 7_919_993;
+        }
+        assert!(checked > 250);
+        let top = Dyadic {
+            mant: u32::MAX,
+            exp: 0,
+        }
+        .recip();
+        assert!(rel(top.to_f64(), 1.0 / f64::from(u32::MAX)) < 1e-9);
+        assert_eq!(Dyadic::ZERO.recip(), Dyadic::MAX);
+    }
+
+    #[test]
+    fn mul_add_sub_against_f64() {
+        let xs = [1e-12, 3.3e-5, 0.5, 0.999, 1.0, 2.0, 7.7e3, 1.1e9, 4.2e17];
+        for &a in &xs {
+            for &b in &xs {
+                let da = Dyadic::from_f64(a).unwrap();
+                let db = Dyadic::from_f64(b).unwrap();
+                assert!(rel(da.mul(db).to_f64(), a * b) < 2f64.powi(-30));
+                assert!(rel(da.add(db).to_f64(), a + b) < 2f64.powi(-30));
+                if a > b {
+                    let s = da.saturating_sub(db).to_f64();
+                    assert!((s - (a - b)).abs() <= 2f64.powi(-30) * a, "{a} - {b}");
+                } else {
+                    assert_eq!(da.saturating_sub(db), Dyadic::ZERO);
+                }
+                assert_eq!(da.lt(db), a < b);
+            }
+        }
+    }
+
+    #[test]
+    fn saturation_and_zero() {
+        assert!(Dyadic::MAX.mul(Dyadic::MAX).is_saturated());
+        assert_eq!(
+            Dyadic::MIN_POSITIVE.mul(Dyadic::MIN_POSITIVE),
+            Dyadic::MIN_POSITIVE
+        );
+        assert_eq!(Dyadic::ZERO.mul(Dyadic::ONE), Dyadic::ZERO);
+        assert_eq!(Dyadic::ZERO.add(Dyadic::ONE), Dyadic::ONE);
+        assert_eq!(Dyadic::ONE.to_u0f32_saturating(), u32::MAX);
+        assert_eq!(
+            Dyadic::from_f64(0.5).unwrap().to_u0f32_saturating(),
+            1 << 31
+        );
+        assert_eq!(Dyadic::from_u64(1 << 40, 0).shl(-40), Dyadic::ONE);
+    }
+}

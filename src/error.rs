@@ -1,0 +1,137 @@
+//! Typed errors: configuration (a `…Design` that cannot be built) and boundary conversions.
+//!
+//! The per-sample path never returns an error; it reports what it did in [`crate::status::Status`].
+
+use core::fmt;
+
+/// A value from engineering units that cannot enter the fixed-point path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoundaryError {
+    /// NaN or ±∞.
+    NotFinite {
+        /// What was being converted.
+        quantity: &'static str,
+    },
+    /// Outside the representable range of the format.
+    OutOfRange {
+        /// What was being converted.
+        quantity: &'static str,
+        /// The offending value.
+        value: f64,
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+    },
+}
+
+impl fmt::Display for BoundaryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NotFinite { quantity } => write!(f, "{quantity}: value is NaN or infinite"),
+            Self::OutOfRange {
+                quantity,
+                value,
+                min,
+                max,
+            } => write!(f, "{quantity}: {value} is outside [{min}, {max})"),
+        }
+    }
+}
+
+impl core::error::Error for BoundaryError {}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for BoundaryError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            Self::NotFinite { quantity } => defmt::write!(f, "{=str}: not finite", quantity),
+            Self::OutOfRange { quantity, .. } => defmt::write!(f, "{=str}: out of range", quantity),
+        }
+    }
+}
+
+/// A configuration parameter that is out of its valid range; the variant names the parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConfigError {
+    /// Forgetting factor λ outside (0, 1] or not finite.
+    Lambda(f64),
+    /// Initial covariance p₀ not positive, not finite, or outside the dyadic range.
+    InitialCovariance(f64),
+    /// Dead zone negative, not finite or outside the signal format.
+    DeadZone(f64),
+    /// Excitation threshold negative or not finite.
+    ExcitationThreshold(f64),
+    /// Covariance limit (trace, diagonal or constant trace) not positive or not finite.
+    CovarianceLimit(f64),
+    /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
+    ModelOrder {
+        /// Output (denominator) order.
+        na: usize,
+        /// Input (numerator) order.
+        nb: usize,
+        /// Parameter count of the estimator.
+        n: usize,
+    },
+    /// Input delay nk outside the supported range.
+    Delay(usize),
+    /// Stability margin outside [0, 0.5).
+    StabilityMargin(f64),
+    /// An initial parameter outside the parameter format, or an unstable initial model.
+    InitialModel(f64),
+    /// Sensor quantum not positive or not finite.
+    Quantum(f64),
+    /// Sampling period not positive or not finite.
+    SamplePeriod(f64),
+    /// Full-scale drive not positive or not finite.
+    FullScale(f64),
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Lambda(v) => write!(f, "lambda = {v}: the forgetting factor must be in (0, 1]"),
+            Self::InitialCovariance(v) => {
+                write!(f, "p0 = {v}: the initial covariance must be finite and > 0")
+            }
+            Self::DeadZone(v) => {
+                write!(f, "dead_zone = {v}: must be finite, ≥ 0 and < 32768 quanta")
+            }
+            Self::ExcitationThreshold(v) => {
+                write!(f, "excitation_threshold = {v}: must be finite and ≥ 0")
+            }
+            Self::CovarianceLimit(v) => {
+                write!(f, "covariance limit = {v}: must be finite and > 0")
+            }
+            Self::ModelOrder { na, nb, n } => write!(
+                f,
+                "model order na = {na}, nb = {nb}: na + nb must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+            ),
+            Self::Delay(v) => write!(f, "nk = {v}: the input delay must be in 0..=8"),
+            Self::StabilityMargin(v) => {
+                write!(f, "stability_margin = {v}: must be in [0, 0.5)")
+            }
+            Self::InitialModel(v) => write!(
+                f,
+                "initial model: parameter {v} is outside ±2048 or the initial model is unstable"
+            ),
+            Self::Quantum(v) => write!(f, "quantum = {v}: must be finite and > 0"),
+            Self::SamplePeriod(v) => {
+                write!(f, "ts = {v}: the sampling period must be finite and > 0")
+            }
+            Self::FullScale(v) => write!(
+                f,
+                "u_max = {v}: the full-scale drive must be finite and > 0"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ConfigError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "invalid configuration parameter");
+    }
+}

@@ -1,0 +1,638 @@
+//! Recursive least squares with exponential forgetting, in integers, on the UD factorisation of the
+//! covariance (Bierman's update), with the anti-windup the sled's closed-loop data needs.
+//!
+//! # Equations
+//! For the regression `y(t) = ψ(t)ᵀθ + e(t)` (eq. 1 of the paper for ARX, its pseudo-linear and
+//! prediction-error forms for OE, eq. 2), with forgetting factor λ ∈ (0, 1]:
+//!
+//! ```text
+//! ε(t) = y(t) − ŷ(t)                       (prediction error, computed by the model structure)
+//! K(t) = P ψ / (λ + ψᵀ P ψ)
+//! θ(t) = θ(t−1) + K(t) ε(t)
+//! P(t) = (P − K ψᵀ P) / λ
+//! ```
+//!
+//! P is never formed. It is held as `P = U·D·Uᵀ` with U unit upper-triangular and D diagonal and
+//! positive, and updated with Bierman's algorithm (G. J. Bierman, *Factorization Methods for Discrete
+//! Sequential Estimation*, 1977, §V.3), in the "normalised gain" form used here:
+//!
+//! ```text
+//! f = Uᵀψ,  α₀ = λ,  αⱼ = αⱼ₋₁ + dⱼ fⱼ²,  rⱼ = αⱼ₋₁/αⱼ,  gⱼ = dⱼ fⱼ / αⱼ
+//! dⱼ ← dⱼ rⱼ / λ
+//! for i < j:  Uᵢⱼ ← Uᵢⱼ − fⱼ κᵢ,   κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ ;   κⱼ = gⱼ
+//! K = κ
+//! ```
+//!
+//! # Why this form
+//! - **Positive definite by construction.** Every dⱼ is a positive [`Dyadic`] (it cannot reach zero or
+//!   change sign: it is only ever multiplied by positive factors) and U is unit triangular, so
+//!   P = UDUᵀ is symmetric positive definite whatever the rounding. The textbook update loses positive
+//!   definiteness after ~4,400 samples of the sled data at λ = 0.995 even in float64
+//!   (`shared/findings.md`).
+//! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. Each dⱼ,
+//!   αⱼ and 1/αⱼ carries its own exponent (32-bit mantissa), so range costs nothing.
+//! - **No division.** The only reciprocals are of αⱼ, by a table-seeded Newton iteration
+//!   ([`Dyadic::recip`]): no 64-bit software division on the hot path.
+//! - **Fixed point where the range is known.** f is normalised by a power of two (block floating
+//!   point: ψ·2⁻ᵏ, which only rescales α₀ to λ·4⁻ᵏ and the gain by 2⁻ᵏ, both exact), the gains gⱼ share
+//!   one exponent per update, and U is I8F24 — its entries are ratios of parameter scales, bounded
+//!   when the regressors are normalised and centred.
+//!
+//! # Formats
+//! | quantity | format | note |
+//! |---|---|---|
+//! | ψ, ε, ŷ | I16F16 ([`SignalI16F16`]) | quanta / fraction of full scale |
+//! | θ | I12F20 ([`ParamI12F20`]) | saturating, flagged |
+//! | U (strict upper part) | I8F24 `i32` | saturating, flagged |
+//! | D, α, 1/α, λ, 1/λ | [`Dyadic`] (32-bit mantissa, own exponent) | exponent saturation flagged |
+//! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹) | scale 2ᵏ kept aside |
+//! | κ (gain being built) | `i32` with one exponent per update, 6 bits of headroom | saturating, flagged |
+//!
+//! # Scaling and overflow
+//! `f` is accumulated exactly in I24F40 (`i64`). Products of two `i32` are formed in `i64` (no
+//! overflow possible); every narrowing uses [`sat_i32`] and raises [`Status::SATURATED`]. Shifts round
+//! half up (truncation would bias U and θ over 10⁶ samples).
+//!
+//! # Anti-windup
+//! Selected per configuration ([`AntiWindup`]) and independent of it: a dead zone on |ε| (in sensor
+//! quanta: the ±1-quantum limit cycle does not drive the estimate), an excitation gate on ψᵀPψ, hold.
+//! Skipped samples leave θ and P untouched (no forgetting without information, so no windup).
+//!
+//! # Accuracy
+//! Against a float64 textbook RLS on the same data: see `host-tests/tests/rls_vs_f64.rs` (θ relative
+//! error and simulation RMS asserted on simulated closed-loop plants and on the EMPS recording).
+//!
+//! # Cost
+//! See `BENCHMARKS.md` (instructions and estimated cycles per update on Cortex-M4F and M0+).
+
+#![deny(clippy::float_arithmetic)]
+
+use crate::dyadic::Dyadic;
+use crate::error::ConfigError;
+use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
+use crate::status::Status;
+
+/// Fraction bits of the U factor (I8F24).
+pub const U_FRAC_BITS: u32 = 24;
+/// Headroom bits of the gain accumulator κ above the largest gⱼ.
+const KAPPA_HEADROOM_BITS: i32 = 6;
+/// Largest supported parameter count (the α accumulation and κ headroom are sized for it).
+pub const MAX_PARAMS: usize = 8;
+
+/// How the covariance is kept from winding up; all limits are on P in parameter units²/signal units².
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AntiWindup {
+    /// No covariance limit (the dead zone and excitation gate still apply).
+    #[default]
+    None,
+    /// After each update, if trace(P) > `max`, scale P down so that trace(P) = `max`.
+    TraceLimit {
+        /// Largest allowed trace.
+        max: f64,
+    },
+    /// After each update, if the largest diagonal element of P exceeds `max`, scale P down to it.
+    DiagonalLimit {
+        /// Largest allowed diagonal element.
+        max: f64,
+    },
+    /// Constant-trace regularisation: after each update, scale P so that trace(P) = `trace`.
+    ConstantTrace {
+        /// The trace P is held at.
+        trace: f64,
+    },
+}
+
+/// User-facing RLS settings, in engineering units (floats); build a validated [`RlsConfig`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RlsDesign {
+    /// Forgetting factor λ ∈ (0, 1]; 1 means no forgetting.
+    pub lambda: f64,
+    /// Initial covariance P₀ = p0 · I.
+    pub p0: f64,
+    /// Dead zone on |ε| in signal units (sensor quanta for positions); 0 disables it.
+    pub dead_zone: f64,
+    /// Minimum ψᵀPψ for an update; 0 disables the gate.
+    pub excitation_threshold: f64,
+    /// Covariance limit.
+    pub anti_windup: AntiWindup,
+}
+
+impl Default for RlsDesign {
+    fn default() -> Self {
+        Self {
+            lambda: 1.0,
+            p0: 1.0e4,
+            dead_zone: 0.0,
+            excitation_threshold: 0.0,
+            anti_windup: AntiWindup::None,
+        }
+    }
+}
+
+/// The quantised covariance limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Bound {
+    None,
+    Trace(Dyadic),
+    Diagonal(Dyadic),
+    ConstantTrace(Dyadic),
+}
+
+/// Validated, quantised RLS configuration (`Copy`; swap it between samples without touching state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RlsConfig {
+    lambda: Dyadic,
+    lambda_inv: Dyadic,
+    p0: Dyadic,
+    dead_zone_i16f16: u32,
+    excitation_min: Dyadic,
+    bound: Bound,
+}
+
+fn positive_dyadic(x: f64, err: ConfigError) -> Result<Dyadic, ConfigError> {
+    match Dyadic::from_f64(x) {
+        Some(d) if !d.is_zero() && !d.is_saturated() => Ok(d),
+        _ => Err(err),
+    }
+}
+
+impl RlsDesign {
+    /// Validates and quantises.
+    ///
+    /// # Errors
+    /// A [`ConfigError`] naming the first parameter out of range.
+    ///
+    /// ```
+    /// use sledid::rls::{AntiWindup, RlsDesign};
+    /// let cfg = RlsDesign { lambda: 0.995, anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+    ///                       ..RlsDesign::default() }.build();
+    /// assert!(cfg.is_ok());
+    /// assert!(RlsDesign { lambda: 1.5, ..RlsDesign::default() }.build().is_err());
+    /// ```
+    pub fn build(&self) -> Result<RlsConfig, ConfigError> {
+        if !(self.lambda > 0.0 && self.lambda <= 1.0) {
+            return Err(ConfigError::Lambda(self.lambda));
+        }
+        let lambda = positive_dyadic(self.lambda, ConfigError::Lambda(self.lambda))?;
+        let p0 = positive_dyadic(self.p0, ConfigError::InitialCovariance(self.p0))?;
+        if self.dead_zone.is_nan() || self.dead_zone < 0.0 {
+            return Err(ConfigError::DeadZone(self.dead_zone));
+        }
+        let dz = SignalI16F16::from_f64(self.dead_zone)
+            .map_err(|_| ConfigError::DeadZone(self.dead_zone))?;
+        let excitation_min = match Dyadic::from_f64(self.excitation_threshold) {
+            Some(d) if !d.is_saturated() => d,
+            _ => return Err(ConfigError::ExcitationThreshold(self.excitation_threshold)),
+        };
+        let bound = match self.anti_windup {
+            AntiWindup::None => Bound::None,
+            AntiWindup::TraceLimit { max } => {
+                Bound::Trace(positive_dyadic(max, ConfigError::CovarianceLimit(max))?)
+            }
+            AntiWindup::DiagonalLimit { max } => {
+                Bound::Diagonal(positive_dyadic(max, ConfigError::CovarianceLimit(max))?)
+            }
+            AntiWindup::ConstantTrace { trace } => {
+                Bound::ConstantTrace(positive_dyadic(trace, ConfigError::CovarianceLimit(trace))?)
+            }
+        };
+        Ok(RlsConfig {
+            lambda,
+            lambda_inv: lambda.recip(),
+            p0,
+            dead_zone_i16f16: dz.raw().unsigned_abs(),
+            excitation_min,
+            bound,
+        })
+    }
+}
+
+/// Everything an update mutates: θ and the UD factors of P.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RlsState<const N: usize> {
+    theta: [ParamI12F20; N],
+    /// Strictly upper part of U in I8F24 (`u[i][j]`, i < j); the rest stays zero.
+    u_i8f24: [[i32; N]; N],
+    d: [Dyadic; N],
+    enabled: bool,
+}
+
+impl<const N: usize> RlsState<N> {
+    const SIZE_OK: () = assert!(N >= 1 && N <= MAX_PARAMS, "1 ≤ N ≤ 8 parameters");
+
+    /// A fresh state: θ = `theta0`, P = p₀·I, enabled.
+    pub fn new(config: &RlsConfig, theta0: [ParamI12F20; N]) -> Self {
+        let () = Self::SIZE_OK;
+        Self {
+            theta: theta0,
+            u_i8f24: [[0; N]; N],
+            d: [config.p0; N],
+            enabled: true,
+        }
+    }
+
+    /// Back to θ = `theta0`, P = p₀·I (the enable state is kept).
+    pub fn reset(&mut self, config: &RlsConfig, theta0: [ParamI12F20; N]) {
+        let enabled = self.enabled;
+        *self = Self::new(config, theta0);
+        self.enabled = enabled;
+    }
+
+    /// Enables (true) or holds (false) the estimator; on hold θ and P are frozen.
+    pub fn set_enabled(&mut self, enabled: bool) {
+        self.enabled = enabled;
+    }
+
+    /// True unless on hold.
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// The current estimate θ.
+    pub fn theta(&self) -> &[ParamI12F20; N] {
+        &self.theta
+    }
+
+    /// Overwrites θ (used by the stability projection of the model structures).
+    pub fn set_theta(&mut self, theta: [ParamI12F20; N]) {
+        self.theta = theta;
+    }
+
+    /// The U factor (strict upper part meaningful), I8F24.
+    pub fn u_i8f24(&self) -> &[[i32; N]; N] {
+        &self.u_i8f24
+    }
+
+    /// The D factor.
+    pub fn d(&self) -> &[Dyadic; N] {
+        &self.d
+    }
+
+    /// `1 + Σ_{i<j} U_ij²` for column j, as a dyadic number.
+    fn column_norm2(&self, j: usize) -> Dyadic {
+        let mut acc: u64 = 1 << (2 * U_FRAC_BITS);
+        for row in self.u_i8f24.iter().take(j) {
+            let uij = row.get(j).copied().unwrap_or(0);
+            acc = acc.saturating_add(i64::from(uij).pow(2).unsigned_abs());
+        }
+        Dyadic::from_u64(acc, -2 * U_FRAC_BITS as i32)
+    }
+
+    /// trace(P) = Σⱼ dⱼ (1 + Σ_{i<j} Uᵢⱼ²).
+    pub fn trace(&self) -> Dyadic {
+        let mut t = Dyadic::ZERO;
+        for (j, dj) in self.d.iter().enumerate() {
+            t = t.add(dj.mul(self.column_norm2(j)));
+        }
+        t
+    }
+
+    /// The largest diagonal element of P: Pᵢᵢ = dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
+    pub fn max_diagonal(&self) -> Dyadic {
+        let mut best = Dyadic::ZERO;
+        for (i, row) in self.u_i8f24.iter().enumerate() {
+            let mut pii = self.d.get(i).copied().unwrap_or(Dyadic::ZERO);
+            for (j, (&uij, dj)) in row.iter().zip(self.d.iter()).enumerate().skip(i + 1) {
+                let _ = j;
+                let u2 = Dyadic::from_u64(i64::from(uij).pow(2).unsigned_abs(), -48);
+                pii = pii.add(u2.mul(*dj));
+            }
+            if best.lt(pii) {
+                best = pii;
+            }
+        }
+        best
+    }
+
+    /// Multiplies P by `factor` (scales D; U is unchanged).
+    fn scale(&mut self, factor: Dyadic) {
+        for dj in &mut self.d {
+            *dj = dj.mul(factor);
+            if dj.is_zero() {
+                *dj = Dyadic::MIN_POSITIVE;
+            }
+        }
+    }
+}
+
+impl RlsConfig {
+    /// The forgetting factor.
+    pub fn lambda(&self) -> Dyadic {
+        self.lambda
+    }
+
+    /// The dead zone on |ε|, raw I16F16.
+    pub fn dead_zone_i16f16(&self) -> u32 {
+        self.dead_zone_i16f16
+    }
+
+    /// ŷ = ψᵀθ, rounded to I16F16 (saturating; the flag is set when it saturated).
+    pub fn predict<const N: usize>(
+        theta: &[ParamI12F20; N],
+        psi: &[SignalI16F16; N],
+        saturated: &mut bool,
+    ) -> SignalI16F16 {
+        // Each product < 2^62; N ≤ 8 terms: saturating sum.
+        let mut acc_i28f36: i64 = 0;
+        for (t, p) in theta.iter().zip(psi.iter()) {
+            acc_i28f36 = acc_i28f36.saturating_add(i64::from(t.raw()) * i64::from(p.raw()));
+        }
+        let y = shr_round_i64(acc_i28f36, crate::fixed::PARAM_FRAC_BITS);
+        SignalI16F16::from_raw(sat_i32(y, saturated))
+    }
+
+    /// One RLS update with regressor ψ and prediction error ε (computed by the caller with the same
+    /// θ). Never panics; returns what it did.
+    pub fn update<const N: usize>(
+        &self,
+        st: &mut RlsState<N>,
+        psi: &[SignalI16F16; N],
+        eps: SignalI16F16,
+    ) -> Status {
+        if !st.enabled {
+            return Status::HELD;
+        }
+        if eps.raw().unsigned_abs() <= self.dead_zone_i16f16 && self.dead_zone_i16f16 > 0 {
+            return Status::DEAD_ZONE;
+        }
+        let mut sat = false;
+
+        // f = Uᵀψ, exactly, in I24F40.
+        let mut f_i24f40 = [0i64; N];
+        let mut f_max: u64 = 0;
+        for (j, fj) in f_i24f40.iter_mut().enumerate() {
+            let psi_j = psi.get(j).map_or(0, |p| i64::from(p.raw()));
+            let mut acc = psi_j << U_FRAC_BITS;
+            for (row, p) in st.u_i8f24.iter().zip(psi.iter()).take(j) {
+                let uij = row.get(j).copied().unwrap_or(0);
+                acc = acc.saturating_add(i64::from(uij) * i64::from(p.raw()));
+            }
+            *fj = acc;
+            f_max = f_max.max(acc.unsigned_abs());
+        }
+        if f_max == 0 {
+            return Status::LOW_EXCITATION;
+        }
+        // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
+        let b = 64 - f_max.leading_zeros() as i32;
+        let k = b - 40;
+        let mut fh_i1f31 = [0i32; N];
+        let mut dummy = false;
+        for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
+            *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
+        }
+
+        // Pass 1: the scalar chain αⱼ, rⱼ, gⱼ and the new D (nothing stored yet).
+        let alpha0 = self.lambda.shl(-2 * k);
+        let mut alpha_prev = alpha0;
+        let mut sum_dff = Dyadic::ZERO;
+        let mut g = [Dyadic::ZERO; N];
+        let mut r_u0f32 = [0u32; N];
+        let mut d_new = st.d;
+        for (j, dn) in d_new.iter_mut().enumerate() {
+            let fh = fh_i1f31.get(j).copied().unwrap_or(0);
+            let f_abs = Dyadic::from_u32(fh.unsigned_abs(), -31);
+            let v = dn.mul(f_abs); // dⱼ |f̃ⱼ|
+            sum_dff = sum_dff.add(v.mul(f_abs));
+            let alpha = alpha0.add(sum_dff);
+            let rho = alpha.recip();
+            let r = alpha_prev.mul(rho);
+            if let Some(rj) = r_u0f32.get_mut(j) {
+                *rj = r.to_u0f32_saturating();
+            }
+            if let Some(gj) = g.get_mut(j) {
+                *gj = v.mul(rho);
+            }
+            *dn = dn.mul(r).mul(self.lambda_inv);
+            if dn.is_zero() {
+                *dn = Dyadic::MIN_POSITIVE;
+            }
+            alpha_prev = alpha;
+        }
+        // Excitation gate: ψᵀPψ = 4ᵏ Σ dⱼ f̃ⱼ².
+        if sum_dff.shl(2 * k).lt(self.excitation_min) {
+            return Status::LOW_EXCITATION;
+        }
+
+        // Pass 2: gains in one block exponent, then U and κ in fixed point.
+        let e_g = g
+            .iter()
+            .filter(|x| !x.is_zero())
+            .map(|x| x.exp())
+            .max()
+            .unwrap_or(0);
+        let e_kappa = e_g.saturating_add(1 + KAPPA_HEADROOM_BITS);
+        let mut kappa = [0i32; N];
+        for j in 0..N {
+            let gd = g.get(j).copied().unwrap_or(Dyadic::ZERO);
+            let shift = e_g.abs_diff(gd.exp()) + 1 + KAPPA_HEADROOM_BITS as u32;
+            let g_mag = if gd.is_zero() || shift >= 32 {
+                0
+            } else {
+                (gd.mant() >> shift) as i32
+            };
+            let fh_j = fh_i1f31.get(j).copied().unwrap_or(0);
+            let g_j = if fh_j < 0 { -g_mag } else { g_mag };
+            let r_j = i64::from(r_u0f32.get(j).copied().unwrap_or(0));
+            for (row, kap) in st.u_i8f24.iter_mut().zip(kappa.iter_mut()).take(j) {
+                if let Some(uij) = row.get_mut(j) {
+                    let u_old = *uij;
+                    // Uᵢⱼ ← Uᵢⱼ − f̃ⱼ κᵢ: I1F31 × (κ·2^e_kappa) → I8F24.
+                    let du = shift_round_i64(i64::from(fh_j) * i64::from(*kap), e_kappa - 7);
+                    *uij = sat_i32(i64::from(u_old).saturating_sub(du), &mut sat);
+                    // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ.
+                    let kr = shr_round_i64(i64::from(*kap) * r_j, 32);
+                    let ug = shr_round_i64(i64::from(u_old) * i64::from(g_j), U_FRAC_BITS);
+                    *kap = sat_i32(kr + ug, &mut sat);
+                }
+            }
+            if let Some(kj) = kappa.get_mut(j) {
+                *kj = g_j;
+            }
+        }
+
+        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_kappa: raw F20 = κ·ε_raw·2^(e_kappa − k + 4).
+        let s_theta = e_kappa.saturating_sub(k).saturating_add(4);
+        for (th, kap) in st.theta.iter_mut().zip(kappa.iter()) {
+            let dth = shift_round_i64(i64::from(*kap) * i64::from(eps.raw()), s_theta);
+            let new = sat_i32(i64::from(th.raw()).saturating_add(dth), &mut sat);
+            *th = ParamI12F20::from_raw(new);
+        }
+        st.d = d_new;
+
+        let mut status = Status::UPDATED;
+        status.set_if(Status::SATURATED, sat);
+        status |= self.bound_covariance(st);
+        status.set_if(
+            Status::COVARIANCE_SATURATED,
+            st.d.iter().any(|d| d.is_saturated()),
+        );
+        status
+    }
+
+    /// Applies the configured covariance limit after an update.
+    fn bound_covariance<const N: usize>(&self, st: &mut RlsState<N>) -> Status {
+        match self.bound {
+            Bound::None => Status::NONE,
+            Bound::Trace(max) => {
+                let tr = st.trace();
+                if max.lt(tr) {
+                    st.scale(max.mul(tr.recip()));
+                    Status::COVARIANCE_BOUNDED
+                } else {
+                    Status::NONE
+                }
+            }
+            Bound::Diagonal(max) => {
+                let pmax = st.max_diagonal();
+                if max.lt(pmax) {
+                    st.scale(max.mul(pmax.recip()));
+                    Status::COVARIANCE_BOUNDED
+                } else {
+                    Status::NONE
+                }
+            }
+            Bound::ConstantTrace(c) => {
+                let tr = st.trace();
+                st.scale(c.mul(tr.recip()));
+                Status::TRACE_NORMALISED
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::float_arithmetic)]
+    use super::*;
+
+    fn sig(x: f64) -> SignalI16F16 {
+        SignalI16F16::from_f64(x).unwrap()
+    }
+
+    /// Runs a noiseless 2-parameter regression and checks the estimate converges.
+    #[test]
+    fn converges_on_a_noiseless_regression() {
+        let cfg = RlsDesign::default().build().unwrap();
+        let mut st = RlsState::<2>::new(&cfg, [ParamI12F20::ZERO; 2]);
+        let (a, b) = (0.8, -0.3);
+        let mut x = 0.37_f64;
+        for _ in 0..400 {
+            x = (x * 3.9 * (1.0 - x)).clamp(0.01, 0.99);
+            let psi = [sig(x * 4.0 - 2.0), sig((1.0 - x) * 3.0)];
+            let y = a * psi[0].to_f64() + b * psi[1].to_f64();
+            let mut s = false;
+            let yh = RlsConfig::predict(st.theta(), &psi, &mut s);
+            let e = sig(y).saturating_sub(yh);
+            let _ = cfg.update(&mut st, &psi, e);
+        }
+        let th = st.theta();
+        assert!((th[0].to_f64() - a).abs() < 1e-4, "{:?}", th);
+        assert!((th[1].to_f64() - b).abs() < 1e-4, "{:?}", th);
+    }
+
+    #[test]
+    fn gates_and_hold_leave_state_untouched() {
+        let cfg = RlsDesign {
+            dead_zone: 1.0,
+            excitation_threshold: 1e-3,
+            ..RlsDesign::default()
+        }
+        .build()
+        .unwrap();
+        let mut st = RlsState::<2>::new(&cfg, [ParamI12F20::ZERO; 2]);
+        let before = st.clone();
+        assert_eq!(
+            cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(0.5)),
+            Status::DEAD_ZONE
+        );
+        assert_eq!(
+            cfg.update(&mut st, &[SignalI16F16::ZERO; 2], sig(3.0)),
+            Status::LOW_EXCITATION
+        );
+        st.set_enabled(false);
+        assert_eq!(
+            cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(3.0)),
+            Status::HELD
+        );
+        st.set_enabled(true);
+        assert_eq!(st, before);
+        assert!(
+            cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(3.0))
+                .contains(Status::UPDATED)
+        );
+        assert_ne!(st, before);
+    }
+
+    #[test]
+    fn trace_limit_holds_under_forgetting_without_excitation() {
+        let cfg = RlsDesign {
+            lambda: 0.9,
+            p0: 1.0,
+            anti_windup: AntiWindup::TraceLimit { max: 50.0 },
+            ..RlsDesign::default()
+        }
+        .build()
+        .unwrap();
+        let mut st = RlsState::<2>::new(&cfg, [ParamI12F20::ZERO; 2]);
+        let mut bounded = 0;
+        for t in 0..2000 {
+            // Same regressor direction every time: the orthogonal direction winds up.
+            let e = if t % 2 == 0 { sig(0.01) } else { sig(-0.01) };
+            let s = cfg.update(&mut st, &[sig(1.0), sig(1.0)], e);
+            if s.contains(Status::COVARIANCE_BOUNDED) {
+                bounded += 1;
+            }
+            assert!(st.trace().to_f64() <= 50.0 * (1.0 + 1e-6));
+        }
+        assert!(bounded > 1000);
+    }
+
+    #[test]
+    fn design_validation_names_the_parameter() {
+        let d = RlsDesign::default();
+        assert_eq!(
+            RlsDesign { lambda: 0.0, ..d }.build(),
+            Err(ConfigError::Lambda(0.0))
+        );
+        assert!(matches!(
+            RlsDesign {
+                lambda: f64::NAN,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::Lambda(_))
+        ));
+        assert_eq!(
+            RlsDesign { p0: -1.0, ..d }.build(),
+            Err(ConfigError::InitialCovariance(-1.0))
+        );
+        assert_eq!(
+            RlsDesign {
+                dead_zone: -1.0,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::DeadZone(-1.0))
+        );
+        assert_eq!(
+            RlsDesign {
+                excitation_threshold: f64::INFINITY,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::ExcitationThreshold(f64::INFINITY))
+        );
+        assert_eq!(
+            RlsDesign {
+                anti_windup: AntiWindup::TraceLimit { max: 0.0 },
+                ..d
+            }
+            .build(),
+            Err(ConfigError::CovarianceLimit(0.0))
+        );
+        assert!(RlsDesign { lambda: 1.0, ..d }.build().is_ok());
+    }
+}

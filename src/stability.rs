@@ -1,0 +1,80 @@
+//! Stability projection: keeps the roots of the estimated denominator F̂(q) (or Â(q)) inside a circle
+//! of radius ρ = 1 − margin, as the recursive prediction-error method requires (Ljung, *System
+//! Identification*, 1999, §11.3: the model's predictor filter 1/F̂ must be stable).
+//!
+//! For `F(q) = 1 + f₁q⁻¹ + f₂q⁻²` the roots of `z² + f₁z + f₂` lie in |z| ≤ ρ iff (Jury, scaled by ρ)
+//! `|f₂| ≤ ρ²` and `ρ·|f₁| ≤ ρ² + f₂`; for first order `|f₁| ≤ ρ`.
+//!
+//! # Formats
+//! f in I12F20 ([`ParamI12F20`]); ρ in I12F20; the tests are exact in `i64` (I24F40 products).
+
+#![deny(clippy::float_arithmetic)]
+
+use crate::error::ConfigError;
+use crate::fixed::ParamI12F20;
+
+/// Radius ρ of the allowed pole region, I12F20.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PoleRadius(ParamI12F20);
+
+impl PoleRadius {
+    /// ρ = 1 − `margin`, margin ∈ [0, 0.5).
+    ///
+    /// # Errors
+    /// [`ConfigError::StabilityMargin`] outside [0, 0.5).
+    pub fn from_margin(margin: f64) -> Result<Self, ConfigError> {
+        if !(0.0..0.5).contains(&margin) {
+            return Err(ConfigError::StabilityMargin(margin));
+        }
+        #[allow(clippy::float_arithmetic)]
+        let rho = 1.0 - margin;
+        ParamI12F20::from_f64(rho)
+            .map(Self)
+            .map_err(|_| ConfigError::StabilityMargin(margin))
+    }
+
+    /// True when the denominator with coefficients `f` (f₁, then f₂ if present) has all its roots in
+    /// |z| ≤ ρ. Orders above 2 are not checked (returns true); the designs reject them.
+    pub fn contains(self, f: &[ParamI12F20]) -> bool {
+        let rho = i64::from(self.0.raw());
+        let one = 1i64 << 20;
+        match f {
+            [] => true,
+            [f1] => i64::from(f1.raw()).abs() <= rho,
+            [f1, f2, ..] => {
+                let f1 = i64::from(f1.raw());
+                let f2 = i64::from(f2.raw());
+                let rho2 = rho * rho; // I24F40
+                (f2 * one).abs() <= rho2 && rho * f1.abs() <= rho2 + f2 * one
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64) -> ParamI12F20 {
+        ParamI12F20::from_f64(x).unwrap()
+    }
+
+    #[test]
+    fn first_and_second_order_regions() {
+        let r = PoleRadius::from_margin(0.0).unwrap();
+        assert!(r.contains(&[p(-0.99)]));
+        assert!(r.contains(&[p(-1.0)]));
+        assert!(!r.contains(&[p(-1.03)]));
+        // (z − 0.9)(z − 0.8) = z² − 1.7z + 0.72: stable.
+        assert!(r.contains(&[p(-1.7), p(0.72)]));
+        // (z − 1.1)(z − 0.5) = z² − 1.6z + 0.55: unstable.
+        assert!(!r.contains(&[p(-1.6), p(0.55)]));
+        // Complex pair of radius √0.81 = 0.9: stable for ρ = 1, not for ρ = 0.85.
+        assert!(r.contains(&[p(-1.0), p(0.81)]));
+        let r85 = PoleRadius::from_margin(0.15).unwrap();
+        assert!(!r85.contains(&[p(-1.0), p(0.81)]));
+        assert!(PoleRadius::from_margin(0.5).is_err());
+        assert!(PoleRadius::from_margin(f64::NAN).is_err());
+    }
+}
