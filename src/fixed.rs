@@ -124,8 +124,8 @@ macro_rules! fixed_newtype {
 fixed_newtype!(SignalI16F16, SIGNAL_FRAC_BITS, "signal (I16F16)");
 fixed_newtype!(ParamI12F20, PARAM_FRAC_BITS, "parameter (I12F20)");
 
-/// Arithmetic shift right by `s` with round-half-up; `s ≥ 64` gives the sign (0 or −1 → 0).
-#[inline]
+/// Arithmetic shift right by `s` with round-half-up; `s ≥ 63` gives 0.
+#[inline(always)]
 pub const fn shr_round_i64(x: i64, s: u32) -> i64 {
     if s == 0 {
         x
@@ -138,7 +138,7 @@ pub const fn shr_round_i64(x: i64, s: u32) -> i64 {
 }
 
 /// `x · 2^s` for a signed shift `s` (left when positive, rounded right when negative), saturating.
-#[inline]
+#[inline(always)]
 pub const fn shift_round_i64(x: i64, s: i32) -> i64 {
     if s >= 0 {
         if s >= 63 {
@@ -164,7 +164,7 @@ pub const fn shift_round_i64(x: i64, s: i32) -> i64 {
 }
 
 /// Narrows to `i32`, saturating; the flag is set when it saturated.
-#[inline]
+#[inline(always)]
 pub const fn sat_i32(x: i64, saturated: &mut bool) -> i32 {
     if x > i32::MAX as i64 {
         *saturated = true;

@@ -28,6 +28,7 @@ pub mod rls;
 pub mod stability;
 pub mod status;
 pub mod step;
+pub mod wide;
 
 pub use boundary::{PositionI48F16, Sample, Scaling};
 pub use error::{BoundaryError, ConfigError};

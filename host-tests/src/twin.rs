@@ -1,10 +1,11 @@
 //! The sled twin: a deterministic simulator of the paper's CD sled in closed loop, in f64.
 //!
 //! A [`Twin`] combines the plant ([`plant`]: mass, viscous/Coulomb/static friction, amplifier
-//! saturation), the quantized noisy position sensor, the seek reference ([`reference`]: low-pass
-//! filtered steps with dwells) and any [`SledController`] (the paper's baseline PID is
-//! [`PidController`]). Everything random (the seek targets, the sensor noise) comes from a `u64`
-//! seed through ChaCha8, so a seed and a [`TwinParams`] reproduce a recording bit for bit.
+//! saturation), the quantized noisy position sensor, the seek reference
+//! ([`reference`](mod@reference): low-pass filtered steps with dwells) and any
+//! [`SledController`] (the paper's baseline PID is [`PidController`]). Everything random (the
+//! seek targets, the sensor noise) comes from a `u64` seed through ChaCha8, so a seed and a
+//! [`TwinParams`] reproduce a recording bit for bit.
 //!
 //! # One sample `k` (`t = k·Ts`)
 //! ```text

@@ -80,19 +80,22 @@ pub fn seek_stats(twin: &Twin) -> Vec<SeekStats> {
         };
         let direction = step_counts.signum();
         let overshoot_counts = first_within
-            .map(|first| {
-                errors[first..]
-                    .iter()
-                    .map(|e| -e * direction)
-                    .max()
-                    .unwrap_or(0)
-                    .max(0)
-            })
-            .unwrap_or(0);
-        let dwell = end - arrival;
-        let window_start = end - ((dwell as f64 * LIMIT_CYCLE_WINDOW_FRACTION).round() as usize);
-        let window_errors = &errors[window_start - seek.start_index..];
-        let window_u: Vec<f64> = samples[window_start..end].iter().map(|s| s.u_v).collect();
+            .and_then(|first| errors.get(first..))
+            .and_then(|tail| tail.iter().map(|e| -e * direction).max())
+            .unwrap_or(0)
+            .max(0);
+        let dwell = end.saturating_sub(arrival);
+        let window = (dwell as f64 * LIMIT_CYCLE_WINDOW_FRACTION).round() as usize;
+        let window_start = end.saturating_sub(window);
+        let window_errors = errors
+            .get(window_start.saturating_sub(seek.start_index)..)
+            .unwrap_or(&[]);
+        let window_u: Vec<f64> = samples
+            .get(window_start..end)
+            .unwrap_or(&[])
+            .iter()
+            .map(|s| s.u_v)
+            .collect();
         stats.push(SeekStats {
             target_counts: target,
             step_counts,

@@ -110,8 +110,8 @@ pub struct ReferenceParams {
     /// Random targets stay within ±`travel_tracks` of the start (track 0); a step that would
     /// leave this range is taken in the other direction.
     pub travel_tracks: u32,
-    /// Explicit seek targets (absolute, tracks from the start); when present they replace the
-    /// random seeks.
+    /// Explicit seek targets (absolute, tracks from the start, within ±`travel_tracks`); when
+    /// present they replace the random seeks.
     pub targets_tracks: Option<Vec<i64>>,
     /// Time held at each target after the filtered reference has arrived, s.
     pub dwell_s: f64,
@@ -244,12 +244,27 @@ impl ReferenceParams {
         check_positive("reference.ref_rise_s", self.ref_rise_s)?;
         check_positive("reference.dwell_s", self.dwell_s)?;
         match &self.targets_tracks {
-            Some(targets) => check(
-                "reference.targets_tracks",
-                targets.len() as f64,
-                !targets.is_empty(),
-                "at least one target",
-            ),
+            Some(targets) => {
+                check(
+                    "reference.targets_tracks",
+                    targets.len() as f64,
+                    !targets.is_empty(),
+                    "at least one target",
+                )?;
+                let travel = i64::from(self.travel_tracks);
+                match targets
+                    .iter()
+                    .find(|target| target.unsigned_abs() > travel.unsigned_abs())
+                {
+                    Some(&outside) => check(
+                        "reference.targets_tracks",
+                        outside as f64,
+                        false,
+                        "targets within ±reference.travel_tracks",
+                    ),
+                    None => Ok(()),
+                }
+            }
             None => {
                 check(
                     "reference.seek_count",

@@ -1,0 +1,308 @@
+//! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU, bit-exact with the host
+//! replay of the same recording through the same `sledid::step::step`.
+//!
+//! - `fixture_is_the_emps_excerpt`: the committed `fixtures/emps_excerpt.bin` is exactly the first
+//!   2,000 rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
+//!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
+//!   diff).
+//! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
+//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --release`, in its own target
+//!   directory `target/fw` so the outer `cargo test` keeps its build lock), run each ELF under
+//!   `qemu-system-arm` (mps2-an386, microbit) with a timeout, and assert: exit status 0, the
+//!   plain-text result line (semihosting stderr) equal to the host replay's, and the defmt log
+//!   (semihosting stdout, decoded with `defmt-print -e ELF`) carrying the same result.
+//!
+//! Needs `qemu-system-arm` (`apt-get install -y --no-install-recommends qemu-system-arm`) and
+//! `defmt-print` (`cargo install defmt-print --locked --version 1.2.0`); without them the tests
+//! fail and say so.
+
+#[path = "../../src/bin/firmware/config.rs"]
+mod fw_config;
+
+use std::io::ErrorKind;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitStatus, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use fw_config::{
+    FIXTURE_SAMPLES, QUANTUM_M, RECORD_BYTES, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
+    U_FULL_SCALE_V,
+};
+use sledid::{Sample, Scaling};
+use sledid_host::recording::{ReaderOptions, RecordingReader};
+
+/// The recording the fixture is cut from.
+const EMPS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../shared/data/emps/DATA_EMPS.csv"
+);
+
+/// The two firmware targets.
+const M4F: &str = "thumbv7em-none-eabihf";
+const M0: &str = "thumbv6m-none-eabi";
+
+/// The workspace root (the `sledid` package).
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("host-tests sits in the workspace")
+        .to_path_buf()
+}
+
+/// The committed fixture.
+fn fixture_path() -> PathBuf {
+    workspace().join("fixtures/emps_excerpt.bin")
+}
+
+/// The separate target directory of the firmware builds.
+fn firmware_target_dir() -> PathBuf {
+    workspace().join("target/fw")
+}
+
+/// The first [`FIXTURE_SAMPLES`] rows of the EMPS estimation set, converted to fixed point.
+fn emps_excerpt() -> Vec<Sample> {
+    let options = ReaderOptions::new(
+        "u=vir_ctrl_V,y=qm_meas_pos_m,r=qg_ref_pos_m,t=t_s"
+            .parse()
+            .expect("valid mapping"),
+    );
+    let scaling = Scaling::new(QUANTUM_M, U_FULL_SCALE_V).expect("valid scaling");
+    RecordingReader::open(EMPS, &options)
+        .expect("EMPS recording opens")
+        .take(FIXTURE_SAMPLES)
+        .map(|row| {
+            let row = row.expect("EMPS row");
+            let r = row.r.expect("EMPS has a reference column");
+            scaling.sample(row.y, row.u, r).expect("EMPS row in range")
+        })
+        .collect()
+}
+
+/// The fixture layout (the inverse of `fw_config::decode`).
+fn encode(samples: &[Sample]) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(samples.len() * RECORD_BYTES);
+    for s in samples {
+        bytes.extend_from_slice(&s.y.raw().to_le_bytes());
+        bytes.extend_from_slice(&s.r.raw().to_le_bytes());
+        bytes.extend_from_slice(&s.u.raw().to_le_bytes());
+    }
+    bytes
+}
+
+/// The committed fixture's bytes.
+fn fixture_bytes() -> Vec<u8> {
+    std::fs::read(fixture_path()).expect("fixtures/emps_excerpt.bin is committed")
+}
+
+/// The host replay of the fixture: what the firmware must print.
+fn host_replay() -> Summary {
+    let bytes = fixture_bytes();
+    let mut run = Run::new().expect("the firmware design builds");
+    for i in 0..FIXTURE_SAMPLES {
+        run.step(&fw_config::record(&bytes, i).expect("record in the fixture"));
+    }
+    run.summary()
+}
+
+#[test]
+fn fixture_is_the_emps_excerpt() {
+    let samples = emps_excerpt();
+    assert_eq!(samples.len(), FIXTURE_SAMPLES, "rows in the recording");
+    if std::env::var_os("SLEDID_WRITE_FIXTURE").is_some() {
+        std::fs::write(fixture_path(), encode(&samples)).expect("write the fixture");
+        println!("wrote {}", fixture_path().display());
+    }
+    let bytes = fixture_bytes();
+    assert_eq!(bytes.len(), FIXTURE_SAMPLES * RECORD_BYTES, "fixture size");
+    assert_eq!(bytes, encode(&samples), "fixture bytes");
+    for (i, expected) in samples.iter().enumerate() {
+        assert_eq!(fw_config::record(&bytes, i).as_ref(), Some(expected), "record {i}");
+    }
+    assert_eq!(fw_config::record(&bytes, FIXTURE_SAMPLES), None, "past the end");
+    // The positions are on the encoder grid (whole quanta); the first row is 149 quanta.
+    assert_eq!(samples.first().map(|s| s.y.raw()), Some(149 << 16));
+    assert!(samples.iter().all(|s| s.y.raw() % (1 << 16) == 0));
+}
+
+/// Fails with the install command when a tool is missing.
+fn require_tool(tool: &str, install: &str) {
+    match Command::new(tool)
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+    {
+        Ok(_) => {}
+        Err(e) if e.kind() == ErrorKind::NotFound => {
+            panic!("`{tool}` is not installed; the firmware tests need it. Install it with: {install}")
+        }
+        Err(e) => panic!("cannot run `{tool}`: {e}"),
+    }
+}
+
+/// Requires QEMU.
+fn require_qemu() {
+    require_tool(
+        "qemu-system-arm",
+        "apt-get install -y --no-install-recommends qemu-system-arm",
+    );
+}
+
+/// Builds the firmware for both targets, once per test process; the ELF of `target`.
+fn firmware_elf(target: &str) -> PathBuf {
+    static BUILD: OnceLock<Result<(), String>> = OnceLock::new();
+    let built = BUILD.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .current_dir(workspace())
+            .args(["build", "--release", "-p", "sledid", "--bin", "sledid-fw"])
+            .args(["--target", M4F, "--target", M0])
+            // Its own target directory: the outer `cargo test` holds the lock of its own.
+            .env("CARGO_TARGET_DIR", firmware_target_dir())
+            // These would replace the config's per-target rustflags (and drop `-Tlink.x`).
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS")
+            .status()
+            .map_err(|e| format!("cannot run cargo: {e}"))?;
+        if status.success() {
+            Ok(())
+        } else {
+            Err(format!("firmware build failed: {status}"))
+        }
+    });
+    if let Err(e) = built {
+        panic!("{e}");
+    }
+    firmware_target_dir().join(format!("{target}/release/sledid-fw"))
+}
+
+/// What one QEMU run produced.
+struct QemuRun {
+    status: ExitStatus,
+    /// Semihosting stdout: defmt frames.
+    defmt_frames: PathBuf,
+    /// Semihosting stderr: the plain-text lines.
+    text: String,
+}
+
+/// Runs `elf` on `machine` until it exits through semihosting, or fails after a timeout.
+fn run_qemu(elf: &Path, cpu: &str, machine: &str) -> QemuRun {
+    let stem = format!("{machine}-{}", std::process::id());
+    let out_path = firmware_target_dir().join(format!("{stem}.defmt"));
+    let err_path = firmware_target_dir().join(format!("{stem}.stderr"));
+    let stdout = std::fs::File::create(&out_path).expect("create the QEMU stdout file");
+    let stderr = std::fs::File::create(&err_path).expect("create the QEMU stderr file");
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-cpu", cpu, "-machine", machine, "-nographic"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(stderr)
+        .spawn()
+        .expect("start qemu-system-arm");
+    // The replay takes FIXTURE_SAMPLES sample periods of emulated time (0.9 s); allow for a slow,
+    // loaded machine.
+    let nominal = Duration::from_nanos(FIXTURE_SAMPLES as u64 * u64::from(SAMPLE_PERIOD_NS));
+    let timeout = nominal * 20 + Duration::from_secs(60);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for qemu") {
+            break status;
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            let text = std::fs::read_to_string(&err_path).unwrap_or_default();
+            panic!("{machine}: QEMU did not exit within {timeout:?}; stderr:\n{text}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    println!("{machine}: QEMU ran {:.2?}", start.elapsed());
+    let text = std::fs::read_to_string(&err_path).expect("read the QEMU stderr file");
+    QemuRun {
+        status,
+        defmt_frames: out_path,
+        text,
+    }
+}
+
+/// Decodes the defmt frames with `defmt-print -e elf`.
+fn decode_defmt(elf: &Path, frames: &Path) -> String {
+    require_tool(
+        "defmt-print",
+        "cargo install defmt-print --locked --version 1.2.0",
+    );
+    let input = std::fs::File::open(frames).expect("open the defmt frames");
+    let out = Command::new("defmt-print")
+        .arg("-e")
+        .arg(elf)
+        .stdin(input)
+        .output()
+        .expect("run defmt-print");
+    assert!(
+        out.status.success(),
+        "defmt-print failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The firmware for `target` under QEMU equals the host replay.
+fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
+    require_qemu();
+    let expected = host_replay();
+    let elf = firmware_elf(target);
+    let run = run_qemu(&elf, cpu, machine);
+    println!("{machine} ({target}) semihosting text:\n{}", run.text);
+    assert!(
+        run.status.success(),
+        "{machine}: the firmware exited with {} (semihosting EXIT_FAILURE, or a crash); output:\n{}",
+        run.status,
+        run.text
+    );
+
+    let expected_line = format!("{RESULT_PREFIX} {expected}");
+    let line = run
+        .text
+        .lines()
+        .find(|l| l.starts_with(RESULT_PREFIX))
+        .unwrap_or_else(|| panic!("{machine}: no result line in:\n{}", run.text));
+    assert_eq!(
+        line, expected_line,
+        "{machine}: firmware (left) differs from the host replay (right)"
+    );
+    assert_eq!(expected.samples as usize, FIXTURE_SAMPLES);
+
+    let log = decode_defmt(&elf, &run.defmt_frames);
+    println!("{machine} ({target}) defmt log:\n{log}");
+    let defmt_result = format!(
+        "result: samples={} updates={} checksum={:#x} theta={:?}",
+        expected.samples, expected.updates, expected.checksum, expected.theta_raw
+    );
+    assert!(
+        log.contains(&defmt_result),
+        "{machine}: the defmt log lacks `{defmt_result}`"
+    );
+    assert!(
+        log.contains("telemetry Telemetry { index: 0,"),
+        "{machine}: no telemetry record in the defmt log"
+    );
+    // The firmware itself fails unless received + dropped = samples; drops (a full queue while
+    // the main loop logs) are possible on a loaded machine and are only reported.
+    assert!(
+        log.contains("telemetry: ") && log.contains(" dropped; stack high-water "),
+        "{machine}: no telemetry summary in the defmt log"
+    );
+}
+
+#[test]
+fn cortex_m4f_matches_host_replay() {
+    matches_host_replay(M4F, "cortex-m4", "mps2-an386");
+}
+
+#[test]
+fn cortex_m0_matches_host_replay() {
+    matches_host_replay(M0, "cortex-m0", "microbit");
+}

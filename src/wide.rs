@@ -1,0 +1,174 @@
+//! Widening multiplies and the reciprocal, written so they are cheap on every Cortex-M core.
+//!
+//! On Armv7-M (M3/M4) `u32 × u32 → u64` is one `UMULL` and a leading-zero count one `CLZ`; on
+//! Armv6-M (M0/M0+) the compiler would call `__aeabi_lmul` (a 64×64 multiply) and `__clzsi2`.
+//! [`mul_u32_wide`] builds the product from four 16×16 `MULS` there instead, and [`bit_len_u64`]
+//! counts by binary search. Both paths return exactly the same result, so outputs are bit-identical
+//! on every target (the tests assert the two paths agree).
+//!
+//! Armv6-M is recognised by `target_has_atomic = "32"` being absent: it is the only Arm profile
+//! without exclusive load/store, and Rust exposes no `thumb2`/`v7` target-feature cfg on stable.
+//!
+//! # Accuracy
+//! Multiplies are exact. [`recip_q63`] returns `floor(2^63 / m)` or one less (error < 2 units in
+//! 2³², asserted in the tests below over a sweep of mantissas).
+
+#![deny(clippy::float_arithmetic)]
+
+/// Exact `a · b` as `u64`.
+#[inline(always)]
+pub fn mul_u32_wide(a: u32, b: u32) -> u64 {
+    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+    {
+        mul_u32_wide_by_halves(a, b)
+    }
+    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    {
+        u64::from(a) * u64::from(b)
+    }
+}
+
+/// Bit length of `x` (0 for 0, 64 for values ≥ 2⁶³): `64 − x.leading_zeros()`.
+#[inline(always)]
+pub fn bit_len_u64(x: u64) -> i32 {
+    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+    {
+        bit_len_u64_by_search(x)
+    }
+    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    {
+        64 - x.leading_zeros() as i32
+    }
+}
+
+/// Bit length by binary search on 32-bit halves (the Armv6-M path of [`bit_len_u64`]).
+#[inline]
+pub fn bit_len_u64_by_search(x: u64) -> i32 {
+    let (mut v, mut n) = if x >> 32 != 0 {
+        ((x >> 32) as u32, 32)
+    } else {
+        (x as u32, 0)
+    };
+    if v >> 16 != 0 {
+        v >>= 16;
+        n += 16;
+    }
+    if v >> 8 != 0 {
+        v >>= 8;
+        n += 8;
+    }
+    if v >> 4 != 0 {
+        v >>= 4;
+        n += 4;
+    }
+    if v >> 2 != 0 {
+        v >>= 2;
+        n += 2;
+    }
+    if v >> 1 != 0 {
+        v >>= 1;
+        n += 1;
+    }
+    n + v as i32
+}
+
+/// Exact `a · b` from four 16×16-bit products (the Armv6-M path of [`mul_u32_wide`]).
+#[inline(always)]
+pub fn mul_u32_wide_by_halves(a: u32, b: u32) -> u64 {
+    let (al, ah) = (a & 0xFFFF, a >> 16);
+    let (bl, bh) = (b & 0xFFFF, b >> 16);
+    let ll = al * bl;
+    let lh = al * bh;
+    let hl = ah * bl;
+    let hh = ah * bh;
+    // mid < 2^33: the carry of the middle terms goes into the high word.
+    let mid = u64::from(lh) + u64::from(hl);
+    (u64::from(hh) << 32) + (mid << 16) + u64::from(ll)
+}
+
+/// Exact `a · b` as `i64` for signed `a` and unsigned `b`.
+#[inline(always)]
+pub fn mul_i32_u32_wide(a: i32, b: u32) -> i64 {
+    let p = mul_u32_wide(a.unsigned_abs(), b) as i64; // < 2^63: |a| ≤ 2^31, b < 2^32
+    if a < 0 { -p } else { p }
+}
+
+/// Exact `a · b` as `i64` for signed operands.
+#[inline(always)]
+pub fn mul_i32_wide(a: i32, b: i32) -> i64 {
+    let p = mul_u32_wide(a.unsigned_abs(), b.unsigned_abs()) as i64; // ≤ 2^62
+    if (a < 0) != (b < 0) { -p } else { p }
+}
+
+/// Seed table: `T[i] ≈ 2^15 · 512 / (256 + i + ½)`, 1/m̄ in U1F15 for the mantissa interval
+/// starting at `(256 + i) / 512`. Built at compile time.
+#[allow(clippy::indexing_slicing)] // compile-time evaluation: i < 256 by the loop bound
+const RECIP_SEED_U1F15: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut i = 0;
+    while i < 256 {
+        let den = 512 + 2 * i as u32 + 1;
+        t[i] = (((1u32 << 25) + den / 2) / den) as u16;
+        i += 1;
+    }
+    t
+};
+
+/// `≈ 2^63 / m` for a normalised mantissa `2^31 ≤ m < 2^32` (result in `(2^31, 2^32]`):
+/// a 256-entry seed (9 bits) and two Newton–Raphson steps, no division instruction.
+#[inline]
+pub fn recip_q63(m: u32) -> u64 {
+    let idx = ((m >> 23) & 0xFF) as usize;
+    let seed = RECIP_SEED_U1F15.get(idx).copied().unwrap_or(0x8000);
+    let mut x = u32::from(seed) << 16; // ≈ 2^31·2^32/m, < 2^32 for every seed
+    for _ in 0..2 {
+        // e = 2^63 − m·x, |e| < 2^55 after the seed and < 2^46 after one step.
+        let e = (1u64 << 63).wrapping_sub(mul_u32_wide(m, x)) as i64;
+        // x += x·e / 2^63, with e/2^31 in i32 range.
+        let e_hi = (e >> 31) as i32;
+        let corr = mul_i32_u32_wide(e_hi, x) >> 32;
+        x = (i64::from(x) + corr).clamp(0, i64::from(u32::MAX)) as u32;
+    }
+    u64::from(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halves_equal_the_native_product() {
+        let vals = [0u32, 1, 2, 0xFFFF, 0x1_0000, 0x8000_0000, 0xFFFF_FFFF, 0x1234_5678, 0xDEAD_BEEF];
+        for &a in &vals {
+            for &b in &vals {
+                assert_eq!(mul_u32_wide_by_halves(a, b), u64::from(a) * u64::from(b));
+                assert_eq!(mul_u32_wide(a, b), u64::from(a) * u64::from(b));
+            }
+        }
+        assert_eq!(mul_i32_wide(i32::MIN, i32::MIN), 1 << 62);
+        for x in [0u64, 1, 2, 3, 0xFF, 0x100, 0xFFFF_FFFF, 0x1_0000_0000, u64::MAX, 1 << 63, 12345 << 20] {
+            assert_eq!(bit_len_u64_by_search(x), 64 - x.leading_zeros() as i32, "{x:#x}");
+            assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
+        }
+        assert_eq!(mul_i32_wide(-3, 5), -15);
+        assert_eq!(mul_i32_u32_wide(i32::MIN, u32::MAX), -(i64::from(u32::MAX) << 31));
+    }
+
+    #[test]
+    fn reciprocal_is_within_one_unit_of_the_floor() {
+        let mut m: u32 = 1 << 31;
+        let mut n = 0;
+        loop {
+            let exact = (1u64 << 63) / u64::from(m);
+            let got = recip_q63(m);
+            assert!(exact - got <= 1 && got <= exact, "m = {m:#x}: {got} vs {exact}");
+            n += 1;
+            match m.checked_add(1_234_567) {
+                Some(next) => m = next,
+                None => break,
+            }
+        }
+        assert!(n > 1700);
+        assert!((1u64 << 63) / u64::from(u32::MAX) - recip_q63(u32::MAX) <= 1);
+    }
+}
