@@ -5,6 +5,10 @@
 //!   the settle point; with r constant this is the same linear model);
 //! - [`Conditioning::Differenced`]: increments `Δy(t) = y(t) − y(t−1)`, `Δu(t) = u(t) − u(t−1)` (same
 //!   parameters for any linear model without offset; removes any operating point);
+//! - [`Conditioning::DifferencedOutput`]: `Δy` against `u` — velocity against drive, the model of an
+//!   integrating plant (a sled, a positioning axis) without its integrator. Prefer it over
+//!   `Differenced` there: differencing a slowly varying drive makes `Δu` a few LSBs of I16F16, and
+//!   the estimate then loses its precision (measured on EMPS, see `host-tests/tests/emps_vs_f64.rs`);
 //! - [`Conditioning::None`]: y as is, for signals already centred by the user (e.g. Silverbox volts).
 //!
 //! Differences are formed in the wide [`PositionI48F16`] format and narrowed to I16F16 afterwards,
@@ -24,6 +28,8 @@ pub enum Conditioning {
     CentredOnReference,
     /// Δy and Δu (first differences).
     Differenced,
+    /// Δy and u (velocity against drive, for integrating plants).
+    DifferencedOutput,
 }
 
 /// The state of the conditioning stage (the previous raw sample, for differencing).
@@ -49,12 +55,14 @@ impl Conditioning {
                 sample.u,
             )),
             Self::CentredOnReference => Some((sample.y.offset_from(sample.r, saturated), sample.u)),
-            Self::Differenced => {
+            Self::Differenced | Self::DifferencedOutput => {
                 let out = st.primed.then(|| {
-                    (
-                        sample.y.offset_from(st.prev_y, saturated),
-                        sample.u.saturating_sub(st.prev_u),
-                    )
+                    let u = if self == Self::Differenced {
+                        sample.u.saturating_sub(st.prev_u)
+                    } else {
+                        sample.u
+                    };
+                    (sample.y.offset_from(st.prev_y, saturated), u)
                 });
                 st.prev_y = sample.y;
                 st.prev_u = sample.u;

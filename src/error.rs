@@ -54,7 +54,7 @@ impl defmt::Format for BoundaryError {
 /// A configuration parameter that is out of its valid range; the variant names the parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ConfigError {
-    /// Forgetting factor λ outside [0.5, 1] or not finite.
+    /// Forgetting factor λ outside (0, 1] or not finite.
     Lambda(f64),
     /// Initial covariance p₀ not positive, not finite, or outside the dyadic range.
     InitialCovariance(f64),
@@ -90,7 +90,7 @@ pub enum ConfigError {
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Lambda(v) => write!(f, "lambda = {v}: the forgetting factor must be in [0.5, 1]"),
+            Self::Lambda(v) => write!(f, "lambda = {v}: the forgetting factor must be in (0, 1]"),
             Self::InitialCovariance(v) => {
                 write!(f, "p0 = {v}: the initial covariance must be finite and > 0")
             }

@@ -24,23 +24,19 @@
 //! ```
 //!
 //! # Why this form
-//! - **Positive definite by construction.** Every dⱼ is stored as a positive mantissa (floored at one
-//!   unit, never zero, never negative: it is only ever multiplied by positive factors) and U is unit
-//!   triangular, so P = UDUᵀ is symmetric positive definite whatever the rounding. The textbook update
-//!   loses positive definiteness after ~4,400 samples of the sled data at λ = 0.995 even in float64
+//! - **Positive definite by construction.** Every dⱼ is a positive [`Dyadic`] (it cannot reach zero or
+//!   change sign: it is only ever multiplied by positive factors) and U is unit triangular, so
+//!   P = UDUᵀ is symmetric positive definite whatever the rounding. The textbook update loses positive
+//!   definiteness after ~4,400 samples of the sled data at λ = 0.995 even in float64
 //!   (`shared/findings.md`).
-//! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. D is held
-//!   in block floating point: `u32` mantissas with one shared exponent, renormalised after every
-//!   update (max mantissa in [2²⁹, 2³⁰)), so P's overall scale costs nothing; the spread *between*
-//!   the dⱼ is resolved to 30 bits, below which a dⱼ is floored (an over-estimate of that
-//!   direction's uncertainty: conservative).
-//! - **No division.** The only reciprocals are of αⱼ, one per parameter, by a table-seeded Newton
-//!   iteration ([`crate::wide::recip_q63`]): no division instruction, no 64-bit software division.
-//! - **Fixed point elsewhere.** f is normalised by a power of two (ψ·2⁻ᵏ only rescales α₀ to λ·4⁻ᵏ and
-//!   the gain by 2⁻ᵏ, both exact); the α chain is summed in one `u64` scale per update; the gains gⱼ
-//!   share one exponent per update; U is I8F24 (ratios of parameter scales, bounded when the
-//!   regressors are normalised and centred). Widening multiplies avoid `__aeabi_lmul` on Armv6-M
-//!   ([`crate::wide`]).
+//! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. Each dⱼ,
+//!   αⱼ and 1/αⱼ carries its own exponent (32-bit mantissa), so range costs nothing.
+//! - **No division.** The only reciprocals are of αⱼ, by a table-seeded Newton iteration
+//!   ([`Dyadic::recip`]): no 64-bit software division on the hot path.
+//! - **Fixed point where the range is known.** f is normalised by a power of two (block floating
+//!   point: ψ·2⁻ᵏ, which only rescales α₀ to λ·4⁻ᵏ and the gain by 2⁻ᵏ, both exact), the gains gⱼ share
+//!   one exponent per update, and U is I8F24 — its entries are ratios of parameter scales, bounded
+//!   when the regressors are normalised and centred.
 //!
 //! # Formats
 //! | quantity | format | note |
@@ -48,18 +44,14 @@
 //! | ψ, ε, ŷ | I16F16 ([`SignalI16F16`]) | quanta / fraction of full scale |
 //! | θ | I12F20 ([`ParamI12F20`]) | saturating, flagged |
 //! | U (strict upper part) | I8F24 `i32` | saturating, flagged |
-//! | D | `u32` mantissas, one `i32` exponent: dⱼ = Dⱼ·2^E | max Dⱼ ∈ [2²⁹, 2³⁰), Dⱼ ≥ 1 |
+//! | D, α, 1/α, λ, 1/λ | [`Dyadic`] (32-bit mantissa, own exponent) | exponent saturation flagged |
 //! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹) | scale 2ᵏ kept aside |
-//! | Σ dⱼf̃ⱼ², αⱼ | `u64` in one scale per update | ≥ 32 significant bits |
-//! | rⱼ = αⱼ₋₁/αⱼ | U0F32 `u32` | |
-//! | λ, 1/λ | U1F31, U2F30 `u32` | λ ∈ [0.5, 1] |
 //! | κ (gain being built) | `i32` with one exponent per update, 6 bits of headroom | saturating, flagged |
 //!
 //! # Scaling and overflow
-//! `f` is accumulated in I24F40 (`i64`, saturating). Products of two 32-bit numbers are formed exactly
-//! in 64 bits; every narrowing uses [`sat_i32`] and raises [`Status::SATURATED`]. Shifts round half up
-//! (truncation would bias U and θ over 10⁶ samples). The block exponent saturates at ±16,384 and raises
-//! [`Status::COVARIANCE_SATURATED`] at the top.
+//! `f` is accumulated exactly in I24F40 (`i64`). Products of two `i32` are formed in `i64` (no
+//! overflow possible); every narrowing uses [`sat_i32`] and raises [`Status::SATURATED`]. Shifts round
+//! half up (truncation would bias U and θ over 10⁶ samples).
 //!
 //! # Anti-windup
 //! Selected per configuration ([`AntiWindup`]) and independent of it: a dead zone on |ε| (in sensor
@@ -67,10 +59,8 @@
 //! Skipped samples leave θ and P untouched (no forgetting without information, so no windup).
 //!
 //! # Accuracy
-//! Against a float64 textbook RLS on the same data (`host-tests/tests/rls_vs_f64.rs`): θ within 1e-3
-//! relative at every sample on well-posed problems (ARX; OE with excitation), simulation RMS within
-//! 1 %; on ill-posed ones (second-order OE on poorly excited data) within 3× the problem's own
-//! sensitivity to the signal format.
+//! Against a float64 textbook RLS on the same data: see `host-tests/tests/rls_vs_f64.rs` (θ relative
+//! error and simulation RMS asserted on simulated closed-loop plants and on the EMPS recording).
 //!
 //! # Cost
 //! See `BENCHMARKS.md` (instructions and estimated cycles per update on Cortex-M4F and M0+).
@@ -81,7 +71,7 @@ use crate::dyadic::Dyadic;
 use crate::error::ConfigError;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::status::Status;
-use crate::wide::{mul_i32_u32_wide, mul_i32_wide, mul_u32_wide, recip_q63};
+use crate::wide::{mul_i32_u32_wide, mul_i32_wide};
 
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
@@ -89,11 +79,6 @@ pub const U_FRAC_BITS: u32 = 24;
 const KAPPA_HEADROOM_BITS: i32 = 6;
 /// Largest supported parameter count (the α accumulation and κ headroom are sized for it).
 pub const MAX_PARAMS: usize = 8;
-/// Bit length of the largest D mantissa after renormalisation (max Dⱼ ∈ [2²⁹, 2³⁰)).
-const D_BITS: i32 = 30;
-/// Limits of the block exponent of D.
-const D_EXP_MAX: i32 = 16_384;
-const D_EXP_MIN: i32 = -16_384;
 
 /// How the covariance is kept from winding up; all limits are on P in parameter units²/signal units².
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -121,7 +106,7 @@ pub enum AntiWindup {
 /// User-facing RLS settings, in engineering units (floats); build a validated [`RlsConfig`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RlsDesign {
-    /// Forgetting factor λ ∈ [0.5, 1]; 1 means no forgetting.
+    /// Forgetting factor λ ∈ (0, 1]; 1 means no forgetting.
     pub lambda: f64,
     /// Initial covariance P₀ = p0 · I.
     pub p0: f64,
@@ -159,10 +144,9 @@ enum Bound {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RlsConfig {
-    lambda_u1f31: u32,
-    lambda_inv_u2f30: u32,
-    p0_mant: u32,
-    p0_exp: i32,
+    lambda: Dyadic,
+    lambda_inv: Dyadic,
+    p0: Dyadic,
     dead_zone_i16f16: u32,
     excitation_min: Dyadic,
     bound: Bound,
@@ -188,19 +172,12 @@ impl RlsDesign {
     /// assert!(cfg.is_ok());
     /// assert!(RlsDesign { lambda: 1.5, ..RlsDesign::default() }.build().is_err());
     /// ```
-    #[allow(clippy::float_arithmetic)] // configuration time, not the per-sample path
     pub fn build(&self) -> Result<RlsConfig, ConfigError> {
-        if !(0.5..=1.0).contains(&self.lambda) {
+        if !(self.lambda > 0.0 && self.lambda <= 1.0) {
             return Err(ConfigError::Lambda(self.lambda));
         }
-        let lambda_u1f31 = (self.lambda * 2_147_483_648.0 + 0.5) as u32;
-        let lambda_inv_u2f30 = (1_073_741_824.0 / self.lambda + 0.5) as u32;
+        let lambda = positive_dyadic(self.lambda, ConfigError::Lambda(self.lambda))?;
         let p0 = positive_dyadic(self.p0, ConfigError::InitialCovariance(self.p0))?;
-        // Dyadic mantissa in [2^31, 2^32) → D mantissa in [2^29, 2^30).
-        let p0_exp = p0.exp().saturating_add(2);
-        if !(D_EXP_MIN..=D_EXP_MAX / 2).contains(&p0_exp) {
-            return Err(ConfigError::InitialCovariance(self.p0));
-        }
         if self.dead_zone.is_nan() || self.dead_zone < 0.0 {
             return Err(ConfigError::DeadZone(self.dead_zone));
         }
@@ -218,16 +195,14 @@ impl RlsDesign {
             AntiWindup::DiagonalLimit { max } => {
                 Bound::Diagonal(positive_dyadic(max, ConfigError::CovarianceLimit(max))?)
             }
-            AntiWindup::ConstantTrace { trace } => Bound::ConstantTrace(positive_dyadic(
-                trace,
-                ConfigError::CovarianceLimit(trace),
-            )?),
+            AntiWindup::ConstantTrace { trace } => {
+                Bound::ConstantTrace(positive_dyadic(trace, ConfigError::CovarianceLimit(trace))?)
+            }
         };
         Ok(RlsConfig {
-            lambda_u1f31,
-            lambda_inv_u2f30,
-            p0_mant: p0.mant() >> 2,
-            p0_exp,
+            lambda,
+            lambda_inv: lambda.recip(),
+            p0,
             dead_zone_i16f16: dz.raw().unsigned_abs(),
             excitation_min,
             bound,
@@ -241,41 +216,8 @@ pub struct RlsState<const N: usize> {
     theta: [ParamI12F20; N],
     /// Strictly upper part of U in I8F24 (`u[i][j]`, i < j); the rest stays zero.
     u_i8f24: [[i32; N]; N],
-    /// D mantissas: dⱼ = `d_mant[j]` · 2^`d_exp`, max in [2²⁹, 2³⁰), each ≥ 1.
-    d_mant: [u32; N],
-    d_exp: i32,
+    d: [Dyadic; N],
     enabled: bool,
-}
-
-/// `x · 2^s` for an unsigned 64-bit value and a signed shift; right shifts round half up, left
-/// shifts saturate, shifts beyond the width give 0 (right) or saturate (left).
-#[inline(always)]
-fn shift_u64(x: u64, s: i32) -> u64 {
-    if s >= 0 {
-        let s = s.unsigned_abs();
-        if x == 0 {
-            0
-        } else if s >= 64 || x > (u64::MAX >> s) {
-            u64::MAX
-        } else {
-            x << s
-        }
-    } else {
-        let s = s.unsigned_abs();
-        if s > 64 {
-            0
-        } else if s == 64 {
-            x >> 63
-        } else {
-            (x >> s) + ((x >> (s - 1)) & 1)
-        }
-    }
-}
-
-/// Bit length of a `u64` (0 for 0).
-#[inline(always)]
-fn bit_len(x: u64) -> i32 {
-    crate::wide::bit_len_u64(x)
 }
 
 impl<const N: usize> RlsState<N> {
@@ -287,8 +229,7 @@ impl<const N: usize> RlsState<N> {
         Self {
             theta: theta0,
             u_i8f24: [[0; N]; N],
-            d_mant: [config.p0_mant; N],
-            d_exp: config.p0_exp,
+            d: [config.p0; N],
             enabled: true,
         }
     }
@@ -325,72 +266,62 @@ impl<const N: usize> RlsState<N> {
         &self.u_i8f24
     }
 
-    /// dⱼ as a dyadic number.
-    pub fn d(&self, j: usize) -> Dyadic {
-        Dyadic::from_u32(self.d_mant.get(j).copied().unwrap_or(0), self.d_exp)
+    /// The D factor.
+    pub fn d(&self) -> &[Dyadic; N] {
+        &self.d
     }
 
-    /// `(1 + Σ_{i<j} Uᵢⱼ²)` for column j in U16F16 (saturating).
-    fn column_norm2_u16f16(&self, j: usize) -> u64 {
-        let mut acc: u64 = 1 << 16;
+    /// `1 + Σ_{i<j} U_ij²` for column j, as a dyadic number.
+    fn column_norm2(&self, j: usize) -> Dyadic {
+        let mut acc: u64 = 1 << (2 * U_FRAC_BITS);
         for row in self.u_i8f24.iter().take(j) {
             let uij = row.get(j).copied().unwrap_or(0);
-            acc = acc.saturating_add(mul_i32_wide(uij, uij).unsigned_abs() >> 32);
+            acc = acc.saturating_add(i64::from(uij).pow(2).unsigned_abs());
         }
-        acc
+        Dyadic::from_u64(acc, -2 * U_FRAC_BITS as i32)
     }
 
     /// trace(P) = Σⱼ dⱼ (1 + Σ_{i<j} Uᵢⱼ²).
     pub fn trace(&self) -> Dyadic {
-        let mut t: u64 = 0;
-        for (j, &dj) in self.d_mant.iter().enumerate() {
-            t = t.saturating_add(u64::from(dj).saturating_mul(self.column_norm2_u16f16(j)));
+        let mut t = Dyadic::ZERO;
+        for (j, dj) in self.d.iter().enumerate() {
+            t = t.add_trunc(dj.mul_trunc(self.column_norm2(j)));
         }
-        Dyadic::from_u64(t, self.d_exp.saturating_sub(16))
+        t
     }
 
     /// The largest diagonal element of P: Pᵢᵢ = dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
     pub fn max_diagonal(&self) -> Dyadic {
-        let mut best: u64 = 0;
+        let mut best = Dyadic::ZERO;
         for (i, row) in self.u_i8f24.iter().enumerate() {
-            let mut pii = u64::from(self.d_mant.get(i).copied().unwrap_or(0)) << 16;
-            for (&uij, &dj) in row.iter().zip(self.d_mant.iter()).skip(i + 1) {
-                let u2 = mul_i32_wide(uij, uij).unsigned_abs() >> 32; // U16F16
-                pii = pii.saturating_add(u2.saturating_mul(u64::from(dj)));
+            let mut pii = self.d.get(i).copied().unwrap_or(Dyadic::ZERO);
+            for (j, (&uij, dj)) in row.iter().zip(self.d.iter()).enumerate().skip(i + 1) {
+                let _ = j;
+                let u2 = Dyadic::from_u64(i64::from(uij).pow(2).unsigned_abs(), -48);
+                pii = pii.add_trunc(u2.mul_trunc(*dj));
             }
-            best = best.max(pii);
+            if best.lt(pii) {
+                best = pii;
+            }
         }
-        Dyadic::from_u64(best, self.d_exp.saturating_sub(16))
-    }
-
-    /// Stores new D mantissas (any magnitude below 2⁶³) at exponent `exp`, renormalised so the largest
-    /// has bit length [`D_BITS`], each floored at 1. Returns true if the exponent saturated high.
-    fn store_d(&mut self, d: &[u64; N], exp: i32) -> bool {
-        let max = d.iter().copied().max().unwrap_or(0);
-        let shift = if max == 0 { 0 } else { bit_len(max) - D_BITS };
-        for (dst, &x) in self.d_mant.iter_mut().zip(d.iter()) {
-            *dst = shift_u64(x, -shift).clamp(1, u64::from(u32::MAX)) as u32;
-        }
-        let e = exp.saturating_add(shift);
-        self.d_exp = e.clamp(D_EXP_MIN, D_EXP_MAX);
-        e >= D_EXP_MAX
+        best
     }
 
     /// Multiplies P by `factor` (scales D; U is unchanged).
-    fn scale(&mut self, factor: Dyadic) -> bool {
-        let mut d = [0u64; N];
-        for (dst, &x) in d.iter_mut().zip(self.d_mant.iter()) {
-            *dst = shift_u64(mul_u32_wide(x, factor.mant()), -32);
+    fn scale(&mut self, factor: Dyadic) {
+        for dj in &mut self.d {
+            *dj = dj.mul_trunc(factor);
+            if dj.is_zero() {
+                *dj = Dyadic::MIN_POSITIVE;
+            }
         }
-        let exp = self.d_exp.saturating_add(factor.exp()).saturating_add(32);
-        self.store_d(&d, exp)
     }
 }
 
 impl RlsConfig {
-    /// The forgetting factor, U1F31.
-    pub fn lambda_u1f31(&self) -> u32 {
-        self.lambda_u1f31
+    /// The forgetting factor.
+    pub fn lambda(&self) -> Dyadic {
+        self.lambda
     }
 
     /// The dead zone on |ε|, raw I16F16.
@@ -404,7 +335,7 @@ impl RlsConfig {
         psi: &[SignalI16F16; N],
         saturated: &mut bool,
     ) -> SignalI16F16 {
-        // Each product ≤ 2^62; N ≤ 8 terms: saturating sum.
+        // Each product < 2^62; N ≤ 8 terms: saturating sum.
         let mut acc_i28f36: i64 = 0;
         for (t, p) in theta.iter().zip(psi.iter()) {
             acc_i28f36 = acc_i28f36.saturating_add(mul_i32_wide(t.raw(), p.raw()));
@@ -429,7 +360,7 @@ impl RlsConfig {
         }
         let mut sat = false;
 
-        // f = Uᵀψ in I24F40 (saturating: only reachable with saturated U and ψ).
+        // f = Uᵀψ, exactly, in I24F40.
         let mut f_i24f40 = [0i64; N];
         let mut f_max: u64 = 0;
         for (j, fj) in f_i24f40.iter_mut().enumerate() {
@@ -445,115 +376,71 @@ impl RlsConfig {
         if f_max == 0 {
             return Status::LOW_EXCITATION;
         }
-        // Normalise: f̂ = f·2^(31−b) in I1F31, max |f̂| in [2^30, 2^31]; f = 2^k f̃ with k = b − 40.
-        let b = bit_len(f_max);
+        // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
+        let b = crate::wide::bit_len_u64(f_max);
         let k = b - 40;
         let mut fh_i1f31 = [0i32; N];
-        let mut ignore = false;
+        let mut dummy = false;
         for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-            *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut ignore);
+            *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
         }
 
-        // Pass 1a: wⱼ = Dⱼ|f̂ⱼ|/2^31 and the running sums S_j = Σ_{i≤j} wᵢ|f̂ᵢ|/4, so that
-        // Σ_{i≤j} dᵢf̃ᵢ² = S_j · 2^(E−29). Bounds: D < 2^30, |f̂| ≤ 2^31 → w ≤ 2^30, terms ≤ 2^59.
-        let mut w = [0u32; N];
-        let mut s_cum = [0u64; N];
-        let mut s_acc: u64 = 0;
-        for ((wj, sj), (&dj, &fh)) in w
-            .iter_mut()
-            .zip(s_cum.iter_mut())
-            .zip(st.d_mant.iter().zip(fh_i1f31.iter()))
-        {
-            let fa = fh.unsigned_abs();
-            *wj = shift_u64(mul_u32_wide(dj, fa), -31) as u32;
-            s_acc = s_acc.saturating_add(shift_u64(mul_u32_wide(*wj, fa), -2));
-            *sj = s_acc;
+        // Pass 1: the scalar chain αⱼ, rⱼ, gⱼ and the new D (nothing stored yet).
+        let alpha0 = self.lambda.shl(-2 * k);
+        let mut alpha_prev = alpha0;
+        let mut sum_dff = Dyadic::ZERO;
+        let mut g = [Dyadic::ZERO; N];
+        let mut r_u0f32 = [0u32; N];
+        let mut d_new = st.d;
+        for (j, dn) in d_new.iter_mut().enumerate() {
+            let fh = fh_i1f31.get(j).copied().unwrap_or(0);
+            let f_abs = Dyadic::from_u32(fh.unsigned_abs(), -31);
+            let v = dn.mul_trunc(f_abs); // dⱼ |f̃ⱼ|
+            sum_dff = sum_dff.add_trunc(v.mul_trunc(f_abs));
+            let alpha = alpha0.add_trunc(sum_dff);
+            let rho = alpha.recip();
+            let r = alpha_prev.mul_trunc(rho);
+            if let Some(rj) = r_u0f32.get_mut(j) {
+                *rj = r.to_u0f32_saturating();
+            }
+            if let Some(gj) = g.get_mut(j) {
+                *gj = v.mul_trunc(rho);
+            }
+            *dn = dn.mul_trunc(r).mul_trunc(self.lambda_inv);
+            if dn.is_zero() {
+                *dn = Dyadic::MIN_POSITIVE;
+            }
+            alpha_prev = alpha;
         }
-        let e = st.d_exp;
-        // Excitation gate: ψᵀPψ = 4ᵏ Σ dⱼf̃ⱼ² = S_n · 2^(E − 29 + 2k).
-        if !self.excitation_min.is_zero()
-            && Dyadic::from_u64(s_acc, e - 29 + 2 * k).lt(self.excitation_min)
-        {
+        // Excitation gate: ψᵀPψ = 4ᵏ Σ dⱼ f̃ⱼ².
+        if sum_dff.shl(2 * k).lt(self.excitation_min) {
             return Status::LOW_EXCITATION;
         }
 
-        // α₀ = λ·4⁻ᵏ in units of 2^(E−29): λ_U1F31 · 2^(−2k − E − 2). One u64 scale 2^σ for the chain.
-        let s_l = -2 * k - e - 2;
-        let top = (32 + s_l).max(bit_len(s_acc));
-        let sigma = (top - 62).max(0);
-        let alpha0 = shift_u64(u64::from(self.lambda_u1f31), s_l - sigma);
-
-        // Pass 1b: αⱼ, rⱼ = αⱼ₋₁/αⱼ, gⱼ = dⱼf̃ⱼ/αⱼ (as G'ⱼ·2^γⱼ), new D.
-        let mut r_u0f32 = [u32::MAX; N];
-        let mut g_mag = [0u64; N];
-        let mut g_exp = [0i32; N];
-        let mut d_new = [0u64; N];
-        // α as a normalised 32-bit mantissa m ∈ [2^31, 2^32) and shift: α ≈ m·2^sh.
-        let normalise = |a: u64| {
-            let sh = bit_len(a) - 32;
-            (shift_u64(a, -sh).min(u64::from(u32::MAX)) as u32, sh)
-        };
-        let (mut m_prev, mut sh_prev) = normalise(alpha0);
-        for j in 0..N {
-            let s_j = s_cum.get(j).copied().unwrap_or(0);
-            let alpha = alpha0.saturating_add(shift_u64(s_j, -sigma));
-            let dj = st.d_mant.get(j).copied().unwrap_or(1);
-            let wj = w.get(j).copied().unwrap_or(0);
-            let (r, gm, ge) = if alpha == 0 {
-                (u32::MAX, 0, 0)
-            } else {
-                let (m, sh) = normalise(alpha);
-                let q = recip_q63(m).min(u64::from(u32::MAX)) as u32; // ≈ 2^63 / m
-                // rⱼ = αⱼ₋₁/αⱼ = m_prev·q·2^(sh_prev − sh − 63), in U0F32 (α non-decreasing: ≤ 1).
-                let r = if m_prev == 0 {
-                    0
-                } else {
-                    shift_u64(mul_u32_wide(m_prev, q), sh_prev - sh - 31).min(u64::from(u32::MAX))
-                        as u32
-                };
-                m_prev = m;
-                sh_prev = sh;
-                // gⱼ = wⱼ·2^E / (α·2^(σ+E−29)) = wⱼ·q·2^(−34 − sh − σ).
-                (r, mul_u32_wide(wj, q), -34 - sh - sigma)
-            };
-            if let Some(x) = r_u0f32.get_mut(j) {
-                *x = r;
-            }
-            if let Some(x) = g_mag.get_mut(j) {
-                *x = gm;
-            }
-            if let Some(x) = g_exp.get_mut(j) {
-                *x = ge;
-            }
-            // dⱼ ← dⱼ rⱼ / λ, rounded (truncation would bias a small dⱼ down by one unit per update).
-            let dr = shift_u64(mul_u32_wide(dj, r), -32) as u32;
-            if let Some(x) = d_new.get_mut(j) {
-                *x = shift_u64(mul_u32_wide(dr, self.lambda_inv_u2f30), -30);
-            }
-        }
-
-        // Pass 2: the gains in one block exponent e_κ, |Gⱼ| < 2^(31 − headroom); U and κ in fixed point.
-        let beta = g_mag
+        // Pass 2: gains in one block exponent, then U and κ in fixed point.
+        let e_g = g
             .iter()
-            .zip(g_exp.iter())
-            .filter(|(m, _)| **m != 0)
-            .map(|(m, x)| x.saturating_add(bit_len(*m)))
+            .filter(|x| !x.is_zero())
+            .map(|x| x.exp())
             .max()
             .unwrap_or(0);
-        let e_kappa = beta - 31 + KAPPA_HEADROOM_BITS;
+        let e_kappa = e_g.saturating_add(1 + KAPPA_HEADROOM_BITS);
         let mut kappa = [0i32; N];
         for j in 0..N {
-            let gm = g_mag.get(j).copied().unwrap_or(0);
-            let ge = g_exp.get(j).copied().unwrap_or(0);
-            let g_abs = shift_u64(gm, ge - e_kappa).min(i32::MAX as u64) as i32;
+            let gd = g.get(j).copied().unwrap_or(Dyadic::ZERO);
+            let shift = e_g.abs_diff(gd.exp()) + 1 + KAPPA_HEADROOM_BITS as u32;
+            let g_mag = if gd.is_zero() || shift >= 32 {
+                0
+            } else {
+                (gd.mant() >> shift) as i32
+            };
             let fh_j = fh_i1f31.get(j).copied().unwrap_or(0);
-            let g_j = if fh_j < 0 { -g_abs } else { g_abs };
-            let r_j = r_u0f32.get(j).copied().unwrap_or(u32::MAX);
-
+            let g_j = if fh_j < 0 { -g_mag } else { g_mag };
+            let r_j = r_u0f32.get(j).copied().unwrap_or(0);
             for (row, kap) in st.u_i8f24.iter_mut().zip(kappa.iter_mut()).take(j) {
                 if let Some(uij) = row.get_mut(j) {
                     let u_old = *uij;
-                    // Uᵢⱼ ← Uᵢⱼ − f̃ⱼ κᵢ: I1F31 × (κ·2^e_κ) → I8F24.
+                    // Uᵢⱼ ← Uᵢⱼ − f̃ⱼ κᵢ: I1F31 × (κ·2^e_kappa) → I8F24.
                     let du = shift_round_i64(mul_i32_wide(fh_j, *kap), e_kappa - 7);
                     *uij = sat_i32(i64::from(u_old).saturating_sub(du), &mut sat);
                     // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ.
@@ -567,47 +454,51 @@ impl RlsConfig {
             }
         }
 
-        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_κ: raw F20 = κ·ε_raw·2^(e_κ − k + 4).
-        let s_theta = e_kappa - k + 4;
+        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_kappa: raw F20 = κ·ε_raw·2^(e_kappa − k + 4).
+        let s_theta = e_kappa.saturating_sub(k).saturating_add(4);
         for (th, kap) in st.theta.iter_mut().zip(kappa.iter()) {
             let dth = shift_round_i64(mul_i32_wide(*kap, eps.raw()), s_theta);
             let new = sat_i32(i64::from(th.raw()).saturating_add(dth), &mut sat);
             *th = ParamI12F20::from_raw(new);
         }
-        let mut exp_saturated = st.store_d(&d_new, e);
+        st.d = d_new;
 
         let mut status = Status::UPDATED;
-        let (bound_status, bound_saturated) = self.bound_covariance(st);
-        status |= bound_status;
-        exp_saturated |= bound_saturated;
         status.set_if(Status::SATURATED, sat);
-        status.set_if(Status::COVARIANCE_SATURATED, exp_saturated);
+        status |= self.bound_covariance(st);
+        status.set_if(
+            Status::COVARIANCE_SATURATED,
+            st.d.iter().any(|d| d.is_saturated()),
+        );
         status
     }
 
     /// Applies the configured covariance limit after an update.
-    fn bound_covariance<const N: usize>(&self, st: &mut RlsState<N>) -> (Status, bool) {
+    fn bound_covariance<const N: usize>(&self, st: &mut RlsState<N>) -> Status {
         match self.bound {
-            Bound::None => (Status::NONE, false),
+            Bound::None => Status::NONE,
             Bound::Trace(max) => {
                 let tr = st.trace();
                 if max.lt(tr) {
-                    (Status::COVARIANCE_BOUNDED, st.scale(max.mul(tr.recip())))
+                    st.scale(max.mul_trunc(tr.recip()));
+                    Status::COVARIANCE_BOUNDED
                 } else {
-                    (Status::NONE, false)
+                    Status::NONE
                 }
             }
             Bound::Diagonal(max) => {
                 let pmax = st.max_diagonal();
                 if max.lt(pmax) {
-                    (Status::COVARIANCE_BOUNDED, st.scale(max.mul(pmax.recip())))
+                    st.scale(max.mul_trunc(pmax.recip()));
+                    Status::COVARIANCE_BOUNDED
                 } else {
-                    (Status::NONE, false)
+                    Status::NONE
                 }
             }
             Bound::ConstantTrace(c) => {
                 let tr = st.trace();
-                (Status::TRACE_NORMALISED, st.scale(c.mul(tr.recip())))
+                st.scale(c.mul_trunc(tr.recip()));
+                Status::TRACE_NORMALISED
             }
         }
     }

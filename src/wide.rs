@@ -138,7 +138,17 @@ mod tests {
 
     #[test]
     fn halves_equal_the_native_product() {
-        let vals = [0u32, 1, 2, 0xFFFF, 0x1_0000, 0x8000_0000, 0xFFFF_FFFF, 0x1234_5678, 0xDEAD_BEEF];
+        let vals = [
+            0u32,
+            1,
+            2,
+            0xFFFF,
+            0x1_0000,
+            0x8000_0000,
+            0xFFFF_FFFF,
+            0x1234_5678,
+            0xDEAD_BEEF,
+        ];
         for &a in &vals {
             for &b in &vals {
                 assert_eq!(mul_u32_wide_by_halves(a, b), u64::from(a) * u64::from(b));
@@ -146,12 +156,31 @@ mod tests {
             }
         }
         assert_eq!(mul_i32_wide(i32::MIN, i32::MIN), 1 << 62);
-        for x in [0u64, 1, 2, 3, 0xFF, 0x100, 0xFFFF_FFFF, 0x1_0000_0000, u64::MAX, 1 << 63, 12345 << 20] {
-            assert_eq!(bit_len_u64_by_search(x), 64 - x.leading_zeros() as i32, "{x:#x}");
+        for x in [
+            0u64,
+            1,
+            2,
+            3,
+            0xFF,
+            0x100,
+            0xFFFF_FFFF,
+            0x1_0000_0000,
+            u64::MAX,
+            1 << 63,
+            12345 << 20,
+        ] {
+            assert_eq!(
+                bit_len_u64_by_search(x),
+                64 - x.leading_zeros() as i32,
+                "{x:#x}"
+            );
             assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
         }
         assert_eq!(mul_i32_wide(-3, 5), -15);
-        assert_eq!(mul_i32_u32_wide(i32::MIN, u32::MAX), -(i64::from(u32::MAX) << 31));
+        assert_eq!(
+            mul_i32_u32_wide(i32::MIN, u32::MAX),
+            -(i64::from(u32::MAX) << 31)
+        );
     }
 
     #[test]
@@ -161,7 +190,10 @@ mod tests {
         loop {
             let exact = (1u64 << 63) / u64::from(m);
             let got = recip_q63(m);
-            assert!(exact - got <= 1 && got <= exact, "m = {m:#x}: {got} vs {exact}");
+            assert!(
+                exact - got <= 1 && got <= exact,
+                "m = {m:#x}: {got} vs {exact}"
+            );
             n += 1;
             match m.checked_add(1_234_567) {
                 Some(next) => m = next,

@@ -117,12 +117,34 @@ fn fixture_is_the_emps_excerpt() {
     assert_eq!(bytes.len(), FIXTURE_SAMPLES * RECORD_BYTES, "fixture size");
     assert_eq!(bytes, encode(&samples), "fixture bytes");
     for (i, expected) in samples.iter().enumerate() {
-        assert_eq!(fw_config::record(&bytes, i).as_ref(), Some(expected), "record {i}");
+        assert_eq!(
+            fw_config::record(&bytes, i).as_ref(),
+            Some(expected),
+            "record {i}"
+        );
     }
-    assert_eq!(fw_config::record(&bytes, FIXTURE_SAMPLES), None, "past the end");
+    assert_eq!(
+        fw_config::record(&bytes, FIXTURE_SAMPLES),
+        None,
+        "past the end"
+    );
     // The positions are on the encoder grid (whole quanta); the first row is 149 quanta.
     assert_eq!(samples.first().map(|s| s.y.raw()), Some(149 << 16));
     assert!(samples.iter().all(|s| s.y.raw() % (1 << 16) == 0));
+}
+
+#[test]
+fn checksum_is_fnv1a_64() {
+    // Published FNV-1a 64 test vectors (the empty string is the offset basis).
+    for (input, expected) in [
+        ("", 0xcbf2_9ce4_8422_2325_u64),
+        ("a", 0xaf63_dc4c_8601_ec8c),
+        ("foobar", 0x8594_4171_f739_67e8),
+    ] {
+        let mut h = fw_config::Fnv1a64::new();
+        h.write(input.as_bytes());
+        assert_eq!(h.value(), expected, "FNV-1a 64 of {input:?}");
+    }
 }
 
 /// Fails with the install command when a tool is missing.
@@ -135,7 +157,9 @@ fn require_tool(tool: &str, install: &str) {
     {
         Ok(_) => {}
         Err(e) if e.kind() == ErrorKind::NotFound => {
-            panic!("`{tool}` is not installed; the firmware tests need it. Install it with: {install}")
+            panic!(
+                "`{tool}` is not installed; the firmware tests need it. Install it with: {install}"
+            )
         }
         Err(e) => panic!("cannot run `{tool}`: {e}"),
     }

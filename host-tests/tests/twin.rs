@@ -621,10 +621,9 @@ fn print_closed_loop_statistics() {
     }
 }
 
-/// Freezes (the sled resting in the zero cell) and wider cycles over many random seeks; run
-/// with `cargo test -p sledid-host --release --test twin -- --ignored --nocapture`.
+/// Freezes (the sled resting in the zero cell) and wider cycles over many random seeks (1,200
+/// seeks; fast with the optimised test profile).
 #[test]
-#[ignore = "slow: 1,200 seeks"]
 fn limit_cycle_over_many_seeds() {
     let mut frozen = 0;
     let mut wide = 0;

@@ -66,7 +66,9 @@ impl<const N: usize> RlsBench<N> {
         for (k, p) in psi.iter_mut().enumerate() {
             *p = at(&PSI_TABLE, i.wrapping_add(k as u32 * 7));
         }
-        self.config.update(&mut self.state, &psi, at(&Y_TABLE, i)).bits()
+        self.config
+            .update(&mut self.state, &psi, at(&Y_TABLE, i))
+            .bits()
     }
 }
 
@@ -99,8 +101,8 @@ impl<const N: usize> ArxBench<N> {
 mod target {
     use super::{ArxBench, RlsBench};
     use core::cell::RefCell;
-    use critical_section::Mutex;
     use cortex_m_rt::entry;
+    use critical_section::Mutex;
 
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
@@ -120,35 +122,53 @@ mod target {
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_overhead(i: u32) -> u32 {
         critical_section::with(|cs| {
-            RLS2.borrow(cs)
-                .borrow_mut()
-                .as_mut()
-                .map_or(0, |b| u32::from(core::hint::black_box(b as *mut _ as usize != 0)) + i)
+            RLS2.borrow(cs).borrow_mut().as_mut().map_or(0, |b| {
+                u32::from(core::hint::black_box(b as *mut _ as usize != 0)) + i
+            })
         })
     }
 
     /// One RLS update, n = 2.
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_rls2_update(i: u32) -> u32 {
-        critical_section::with(|cs| RLS2.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+        critical_section::with(|cs| {
+            RLS2.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i).into())
+        })
     }
 
     /// One RLS update, n = 4.
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_rls4_update(i: u32) -> u32 {
-        critical_section::with(|cs| RLS4.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+        critical_section::with(|cs| {
+            RLS4.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i).into())
+        })
     }
 
     /// One ARX(2,2) step: regressor, prediction, RLS update, projection.
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_arx4_step(i: u32) -> u32 {
-        critical_section::with(|cs| ARX4.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i).into()))
+        critical_section::with(|cs| {
+            ARX4.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i).into())
+        })
     }
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 4] =
-        [bench_overhead, bench_rls2_update, bench_rls4_update, bench_arx4_step];
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 4] = [
+        bench_overhead,
+        bench_rls2_update,
+        bench_rls4_update,
+        bench_arx4_step,
+    ];
 
     #[entry]
     fn main() -> ! {
@@ -171,9 +191,11 @@ mod target {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    let (Some(mut r2), Some(mut r4), Some(mut a4)) =
-        (RlsBench::<2>::new(), RlsBench::<4>::new(), ArxBench::<4>::new())
-    else {
+    let (Some(mut r2), Some(mut r4), Some(mut a4)) = (
+        RlsBench::<2>::new(),
+        RlsBench::<4>::new(),
+        ArxBench::<4>::new(),
+    ) else {
         eprintln!("bench scenarios failed to build");
         std::process::exit(1);
     };
@@ -185,5 +207,7 @@ fn main() {
     println!("rls2 θ = {:?}", r2.state.theta());
     println!("rls4 θ = {:?}", r4.state.theta());
     println!("arx4 θ = {:?}", a4.state.theta());
-    println!("Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md).");
+    println!(
+        "Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md)."
+    );
 }

@@ -3,6 +3,9 @@
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, and every host test (overflow checks on).
 //! - `fmt`: format the workspace.
+//! - `cost`: build the bench image for Cortex-M4F and M0+ and count instructions / estimate cycles
+//!   per call of every `bench_*` entry point with `../shared/tools/count_insns.py` (needs Python with
+//!   `unicorn==2.1.4 capstone==5.0.9 pyelftools==0.33`), printing the table for BENCHMARKS.md.
 
 use std::process::{Command, ExitCode};
 
@@ -42,13 +45,90 @@ fn test() -> bool {
     steps.iter().all(|s| cargo(s))
 }
 
+/// Entry points of the bench image (src/bin/bench.rs).
+const BENCH_FNS: [&str; 4] = [
+    "bench_overhead",
+    "bench_rls2_update",
+    "bench_rls4_update",
+    "bench_arx4_step",
+];
+
+fn cost() -> bool {
+    let tool =
+        std::env::var("COUNT_INSNS").unwrap_or_else(|_| "../shared/tools/count_insns.py".into());
+    let mut rows = Vec::new();
+    for (target, arch) in [
+        ("thumbv7em-none-eabihf", "m4f"),
+        ("thumbv6m-none-eabi", "m0plus"),
+    ] {
+        if !cargo(&[
+            "build",
+            "--release",
+            "--target",
+            target,
+            "--bin",
+            "sledid-bench",
+        ]) {
+            return false;
+        }
+        let elf = format!("target/{target}/release/sledid-bench");
+        for f in BENCH_FNS {
+            let out = Command::new("python3")
+                .args([
+                    &tool,
+                    &elf,
+                    f,
+                    "--arch",
+                    arch,
+                    "--init",
+                    "bench_init",
+                    "--warmup",
+                    "64",
+                    "--calls",
+                    "256",
+                    "--args",
+                    "i",
+                ])
+                .output();
+            let Ok(out) = out else {
+                eprintln!("xtask: cannot run python3 {tool}");
+                return false;
+            };
+            let text = String::from_utf8_lossy(&out.stdout);
+            let field = |key: &str, col: usize| {
+                text.lines()
+                    .find(|l| l.trim_start().starts_with(key))
+                    .and_then(|l| l.split_whitespace().nth(col).map(str::to_owned))
+                    .unwrap_or_else(|| "?".into())
+            };
+            if !out.status.success() {
+                eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+                return false;
+            }
+            rows.push(format!(
+                "| {arch} | {f} | {} | {} | {} |",
+                field("instructions", 2),
+                field("est. cycles  ", 3),
+                field("stack used", 5)
+            ));
+        }
+    }
+    println!("\n| core | function | instructions (mean) | est. cycles (mean) | stack bytes |");
+    println!("|---|---|---|---|---|");
+    for r in rows {
+        println!("{r}");
+    }
+    true
+}
+
 fn main() -> ExitCode {
     let task = std::env::args().nth(1).unwrap_or_default();
     let ok = match task.as_str() {
         "test" => test(),
         "fmt" => cargo(&["fmt", "--all"]),
+        "cost" => cost(),
         _ => {
-            eprintln!("usage: cargo xtask <test|fmt>");
+            eprintln!("usage: cargo xtask <test|fmt|cost>");
             false
         }
     };

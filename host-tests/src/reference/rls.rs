@@ -1,11 +1,35 @@
-//! Textbook covariance-form RLS in `f64`.
+//! RLS in `f64`, in two forms: the textbook covariance update (re-symmetrised) and Bierman's UD
+//! update (the algorithm the fixed-point kernel implements).
+//!
+//! The textbook form is what most tools implement; on badly scaled regressors (differenced EMPS:
+//! |Δy| ~ 10³ counts, |Δu| ~ 10⁻⁴ of full scale) its `P − ggᵀ/α` cancels catastrophically even in
+//! float64 (`host-tests/tests/emps_vs_f64.rs` shows it 17 % away from the exact batch solution). The
+//! UD form is the reference the fixed-point path is held to.
+
+// The reference mirrors the equations index for index (Uᵢⱼ, κᵢ): readability over iterator style.
+#![allow(clippy::needless_range_loop)]
 
 use sledid::Status;
 use sledid::rls::AntiWindup;
 
-/// RLS with forgetting on a full, re-symmetrised covariance matrix.
+/// Which covariance update the reference uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CovarianceForm {
+    /// `P ← (P − K ψᵀP)/λ`, re-symmetrised.
+    Textbook,
+    /// P = UDUᵀ, Bierman's update (as the fixed-point kernel).
+    Bierman,
+}
+
+/// RLS with forgetting, in float64.
 #[derive(Clone, Debug)]
 pub struct RlsF64<const N: usize> {
+    /// The covariance update used.
+    pub form: CovarianceForm,
+    /// Unit upper-triangular U (Bierman form only).
+    pub u: [[f64; N]; N],
+    /// Diagonal D (Bierman form only).
+    pub d: [f64; N],
     /// Estimate.
     pub theta: [f64; N],
     /// Covariance.
@@ -32,6 +56,9 @@ impl<const N: usize> RlsF64<N> {
             row[i] = design.p0;
         }
         Self {
+            form: CovarianceForm::Bierman,
+            u: [[0.0; N]; N],
+            d: [design.p0; N],
             theta: theta0,
             p,
             lambda: design.lambda,
@@ -48,14 +75,39 @@ impl<const N: usize> RlsF64<N> {
         psi.iter().zip(self.theta.iter()).map(|(a, b)| a * b).sum()
     }
 
+    /// The covariance P (formed from U and D in the Bierman form).
+    pub fn covariance(&self) -> [[f64; N]; N] {
+        match self.form {
+            CovarianceForm::Textbook => self.p,
+            CovarianceForm::Bierman => {
+                let mut p = [[0.0; N]; N];
+                for (i, row) in p.iter_mut().enumerate() {
+                    for (j, x) in row.iter_mut().enumerate() {
+                        // P_ij = Σ_k U_ik d_k U_jk with U unit upper-triangular.
+                        *x = (i.max(j)..N)
+                            .map(|k| {
+                                let uik = if k == i { 1.0 } else { self.u[i][k] };
+                                let ujk = if k == j { 1.0 } else { self.u[j][k] };
+                                uik * self.d[k] * ujk
+                            })
+                            .sum();
+                    }
+                }
+                p
+            }
+        }
+    }
+
     /// trace(P).
     pub fn trace(&self) -> f64 {
-        (0..N).map(|i| self.p[i][i]).sum()
+        let p = self.covariance();
+        (0..N).map(|i| p[i][i]).sum()
     }
 
     /// The largest diagonal element of P.
     pub fn max_diagonal(&self) -> f64 {
-        (0..N).map(|i| self.p[i][i]).fold(f64::MIN, f64::max)
+        let p = self.covariance();
+        (0..N).map(|i| p[i][i]).fold(f64::MIN, f64::max)
     }
 
     fn scale(&mut self, k: f64) {
@@ -64,6 +116,58 @@ impl<const N: usize> RlsF64<N> {
                 *x *= k;
             }
         }
+        for d in &mut self.d {
+            *d *= k;
+        }
+    }
+
+    /// ψᵀPψ without changing anything.
+    fn excitation(&self, psi: &[f64; N]) -> f64 {
+        match self.form {
+            CovarianceForm::Textbook => {
+                let mut s = 0.0;
+                for (row, pi) in self.p.iter().zip(psi.iter()) {
+                    s += pi * row.iter().zip(psi.iter()).map(|(a, b)| a * b).sum::<f64>();
+                }
+                s
+            }
+            CovarianceForm::Bierman => {
+                let f = self.ut_psi(psi);
+                f.iter().zip(self.d.iter()).map(|(f, d)| d * f * f).sum()
+            }
+        }
+    }
+
+    fn ut_psi(&self, psi: &[f64; N]) -> [f64; N] {
+        let mut f = *psi;
+        for (j, fj) in f.iter_mut().enumerate() {
+            for i in 0..j {
+                *fj += self.u[i][j] * psi[i];
+            }
+        }
+        f
+    }
+
+    /// Bierman's update; returns the gain K.
+    fn bierman(&mut self, psi: &[f64; N]) -> [f64; N] {
+        let f = self.ut_psi(psi);
+        let mut kappa = [0.0; N];
+        let mut alpha_prev = self.lambda;
+        for j in 0..N {
+            let v = self.d[j] * f[j];
+            let alpha = alpha_prev + v * f[j];
+            let r = alpha_prev / alpha;
+            let g = v / alpha;
+            self.d[j] *= r / self.lambda;
+            for i in 0..j {
+                let u_old = self.u[i][j];
+                self.u[i][j] -= f[j] * kappa[i];
+                kappa[i] = kappa[i] * r + u_old * g;
+            }
+            kappa[j] = g;
+            alpha_prev = alpha;
+        }
+        kappa
     }
 
     /// One update with regressor ψ and a-priori error ε; same flags as the fixed-point kernel.
@@ -89,11 +193,7 @@ impl<const N: usize> RlsF64<N> {
     /// As [`Self::update`], but `force = Some(update?)` overrides the gate decision (used to lock the
     /// reference to the fixed-point path's decisions, so a comparison measures arithmetic only).
     pub fn update_forced(&mut self, psi: &[f64; N], eps: f64, force: Option<bool>) -> Status {
-        let mut p_psi = [0.0; N];
-        for (pp, row) in p_psi.iter_mut().zip(self.p.iter()) {
-            *pp = row.iter().zip(psi.iter()).map(|(a, b)| a * b).sum();
-        }
-        let s: f64 = psi.iter().zip(p_psi.iter()).map(|(a, b)| a * b).sum();
+        let s = self.excitation(psi);
         let own = self.gate(psi, eps, s);
         self.last_overridden = force.is_some_and(|f| f != own.is_ok());
         match (own, force) {
@@ -101,20 +201,31 @@ impl<const N: usize> RlsF64<N> {
             (_, Some(false)) => return Status::DEAD_ZONE,
             _ => {}
         }
-        let alpha = self.lambda + s;
-        for (th, pp) in self.theta.iter_mut().zip(p_psi.iter()) {
-            *th += pp / alpha * eps;
-        }
-        for (row, pi) in self.p.iter_mut().zip(p_psi.iter()) {
-            for (x, pj) in row.iter_mut().zip(p_psi.iter()) {
-                *x = (*x - pi * pj / alpha) / self.lambda;
+        if self.form == CovarianceForm::Bierman {
+            let k = self.bierman(psi);
+            for (th, ki) in self.theta.iter_mut().zip(k.iter()) {
+                *th += ki * eps;
             }
-        }
-        for i in 0..N {
-            for j in (i + 1)..N {
-                let m = 0.5 * (self.p[i][j] + self.p[j][i]);
-                self.p[i][j] = m;
-                self.p[j][i] = m;
+        } else {
+            let mut p_psi = [0.0; N];
+            for (pp, row) in p_psi.iter_mut().zip(self.p.iter()) {
+                *pp = row.iter().zip(psi.iter()).map(|(a, b)| a * b).sum();
+            }
+            let alpha = self.lambda + s;
+            for (th, pp) in self.theta.iter_mut().zip(p_psi.iter()) {
+                *th += pp / alpha * eps;
+            }
+            for (row, pi) in self.p.iter_mut().zip(p_psi.iter()) {
+                for (x, pj) in row.iter_mut().zip(p_psi.iter()) {
+                    *x = (*x - pi * pj / alpha) / self.lambda;
+                }
+            }
+            for i in 0..N {
+                for j in (i + 1)..N {
+                    let m = 0.5 * (self.p[i][j] + self.p[j][i]);
+                    self.p[i][j] = m;
+                    self.p[j][i] = m;
+                }
             }
         }
         let mut status = Status::UPDATED;

@@ -106,8 +106,26 @@ impl Fnv1a64 {
     /// Folds `bytes` in.
     pub fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(Self::PRIME);
+            self.0 = Self::mul_prime(self.0 ^ u64::from(b));
         }
+    }
+
+    /// `h · PRIME mod 2⁶⁴` with 32-bit multiplies only: PRIME = 2⁴⁰ + 0x1b3, and every partial
+    /// product of a 16-bit limb by 0x1b3 fits in 25 bits. Cortex-M0 has no 32×32→64 multiply, so
+    /// the plain `wrapping_mul` costs a `__aeabi_lmul` call per byte (≈ 60 cycles).
+    #[inline(always)]
+    fn mul_prime(h: u64) -> u64 {
+        const LOW: u32 = (Fnv1a64::PRIME & 0xffff_ffff) as u32;
+        const _: () = assert!(Fnv1a64::PRIME == (1 << 40) + LOW as u64 && LOW < 1 << 16);
+        let lo = h as u32;
+        let hi = (h >> 32) as u32;
+        let lo_lo = u64::from((lo & 0xffff) * LOW); // < 2^32: 16 × 9 bits
+        let lo_hi = u64::from((lo >> 16) * LOW) << 16; // < 2^48
+        let hi_part = u64::from(hi.wrapping_mul(LOW)) << 32; // only its low 32 bits survive
+        (h << 40)
+            .wrapping_add(hi_part)
+            .wrapping_add(lo_hi)
+            .wrapping_add(lo_lo)
     }
 
     /// Folds in one step's outputs (see the module doc for the byte order).
@@ -137,8 +155,10 @@ impl Default for Fnv1a64 {
 /// The firmware's SysTick handler and the host replay both step this, one sample at a time.
 #[derive(Clone, Debug)]
 pub struct Run {
-    config: IdentifierConfig<N>,
-    state: IdentifierState<N>,
+    /// The validated configuration of [`design`].
+    pub(crate) config: IdentifierConfig<N>,
+    /// The identifier's state.
+    pub(crate) state: IdentifierState<N>,
     checksum: Fnv1a64,
     samples: u32,
     updates: u32,
@@ -187,10 +207,10 @@ impl Run {
     }
 }
 
-/// The per-sample step alone, kept out of line so that `count_insns.py`'s breakdown by function
-/// separates it from the checksum.
+/// The per-sample step alone ([`sledid::step::step`] on this design's `N`), kept out of line so
+/// that it exists once in the image and `count_insns.py` can measure it apart from the checksum.
 #[inline(never)]
-fn identify(
+pub fn identify(
     config: &IdentifierConfig<N>,
     state: &mut IdentifierState<N>,
     sample: &Sample,
