@@ -5,4 +5,5 @@ pub mod compare;
 pub mod plants;
 pub mod recording;
 pub mod reference;
+pub mod replay;
 pub mod twin;

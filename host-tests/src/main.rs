@@ -29,6 +29,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Replay recordings through the per-sample step (the firmware's function) and its float64
+    /// reference: DIR/<name>/trace.csv and summary.json. Several files run in parallel.
+    Replay(ReplayArgs),
     /// Generate a twin recording, replay it through the fixed-point identifier and its float64
     /// reference, write DIR/trace.csv and DIR/summary.json.
     Demo {
@@ -39,6 +42,123 @@ enum Command {
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
     },
+}
+
+#[derive(clap::Args)]
+struct ReplayArgs {
+    /// Recording(s): CSV or whitespace-separated.
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// Column mapping by name or 0-based index, e.g. `u=vir_ctrl_V,y=qm_meas_pos_m,r=qg_ref_pos_m,t=t_s`.
+    #[arg(long)]
+    columns: String,
+    /// Sampling period (s) when there is no time column (or to check the one there is).
+    #[arg(long)]
+    ts: Option<f64>,
+    /// Model structure.
+    #[arg(long, default_value = "arx", value_parser = ["arx", "oe", "oe-pem"])]
+    model: String,
+    /// Orders `na,nb`.
+    #[arg(long, default_value = "2,2")]
+    order: String,
+    /// Conditioning of y (and u): centred (y − r), differenced (Δy, Δu), velocity (Δy, u), none.
+    #[arg(long, default_value = "velocity", value_parser = ["centred", "differenced", "velocity", "none"])]
+    conditioning: String,
+    /// Position unit at the boundary, in the y column's unit (e.g. the sensor quantum).
+    #[arg(long, default_value_t = 1.0)]
+    y_unit: f64,
+    /// Full-scale drive, in the u column's unit.
+    #[arg(long, default_value_t = 1.0)]
+    u_full_scale: f64,
+    /// Forgetting factor λ ∈ (0, 1].
+    #[arg(long, default_value_t = 0.995)]
+    lambda: f64,
+    /// Initial covariance P₀ = p0·I.
+    #[arg(long, default_value_t = 10.0)]
+    p0: f64,
+    /// Trace limit on P (0: none).
+    #[arg(long, default_value_t = 100.0)]
+    trace_limit: f64,
+    /// Dead zone on |ε| in y units (0: none).
+    #[arg(long, default_value_t = 0.0)]
+    dead_zone: f64,
+    /// realtime, max, or a factor of real time.
+    #[arg(long, default_value = "max")]
+    rate: String,
+    /// Output directory.
+    #[arg(long, default_value = "out/replay")]
+    out: PathBuf,
+}
+
+fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
+    use rayon::prelude::*;
+    use sledid_host::recording::ReaderOptions;
+    use sledid_host::replay::{ReplaySpec, replay};
+    let mapping = a.columns.parse().map_err(|e| format!("--columns: {e}"))?;
+    let mut reader = ReaderOptions::new(mapping);
+    reader.ts_s = a.ts;
+    let mut spec = ReplaySpec::new(reader);
+    spec.structure = match a.model.as_str() {
+        "oe" => Structure::OutputErrorPseudoLinear,
+        "oe-pem" => Structure::OutputErrorPredictionError,
+        _ => Structure::Arx,
+    };
+    let order: Vec<usize> = a
+        .order
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("--order `{}`: expected na,nb", a.order))
+        })
+        .collect::<Result<_, _>>()?;
+    let [na, nb] = order[..] else {
+        return Err(format!("--order `{}`: expected na,nb", a.order));
+    };
+    spec.order = (na, nb);
+    spec.conditioning = match a.conditioning.as_str() {
+        "centred" => Conditioning::CentredOnReference,
+        "differenced" => Conditioning::Differenced,
+        "none" => Conditioning::None,
+        _ => Conditioning::DifferencedOutput,
+    };
+    spec.y_unit = a.y_unit;
+    spec.u_full_scale = a.u_full_scale;
+    spec.rls = RlsDesign {
+        lambda: a.lambda,
+        p0: a.p0,
+        dead_zone: a.dead_zone,
+        anti_windup: if a.trace_limit > 0.0 {
+            AntiWindup::TraceLimit { max: a.trace_limit }
+        } else {
+            AntiWindup::None
+        },
+        ..RlsDesign::default()
+    };
+    spec.rate = a.rate.parse()?;
+    spec.progress = a.files.len() == 1;
+    let results: Vec<Result<(), String>> = a
+        .files
+        .par_iter()
+        .map(|f| {
+            let stem = f.file_stem().map_or_else(|| "recording".into(), |s| s.to_string_lossy().into_owned());
+            let dir = a.out.join(stem);
+            let s = replay(f, &spec, &dir)?;
+            let mut line = format!(
+                "{}: {} samples in {:.3} s | θ {:?} | θ_f64 {:?} (rel. {:.1e}) | sim RMS {:.4} (f64 {:.4})",
+                s.file, s.samples, s.wall_s, s.theta, s.theta_f64, s.theta_rel_err, s.sim_rms, s.sim_rms_f64
+            );
+            if let Some(d) = s.deadline {
+                line += &format!(
+                    " | lateness p50 {:.1} µs p99 {:.1} µs max {:.1} µs, overruns {}",
+                    d.p50_us, d.p99_us, d.max_us, d.overruns
+                );
+            }
+            println!("{line}\n  → {}", dir.display());
+            Ok(())
+        })
+        .collect();
+    results.into_iter().collect()
 }
 
 /// The identifier the demo runs: velocity against drive (the sled integrates), ARX(2,2), λ = 0.995,
@@ -174,6 +294,7 @@ fn main() -> ExitCode {
         out: PathBuf::from("out/demo"),
     }) {
         Command::Demo { seed, out } => demo(seed, &out),
+        Command::Replay(args) => replay_cmd(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -147,30 +147,34 @@ fn checksum_is_fnv1a_64() {
     }
 }
 
-/// Fails with the install command when a tool is missing.
-fn require_tool(tool: &str, install: &str) {
-    match Command::new(tool)
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-    {
-        Ok(_) => {}
-        Err(e) if e.kind() == ErrorKind::NotFound => {
-            panic!(
-                "`{tool}` is not installed; the firmware tests need it. Install it with: {install}"
-            )
+/// The program to run for `tool`: from `PATH`, else from cargo's `bin` directory (where
+/// `cargo install` puts it, not always on `PATH`). Fails with the install command when missing.
+fn require_tool(tool: &str, install: &str) -> PathBuf {
+    let cargo_bin = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")))
+        .map(|home| home.join("bin").join(tool));
+    for candidate in std::iter::once(PathBuf::from(tool)).chain(cargo_bin) {
+        match Command::new(&candidate)
+            .arg("--version")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+        {
+            Ok(_) => return candidate,
+            Err(e) if e.kind() == ErrorKind::NotFound => {}
+            Err(e) => panic!("cannot run `{}`: {e}", candidate.display()),
         }
-        Err(e) => panic!("cannot run `{tool}`: {e}"),
     }
+    panic!("`{tool}` is not installed; the firmware tests need it. Install it with: {install}")
 }
 
-/// Requires QEMU.
-fn require_qemu() {
+/// Requires QEMU; the program to run.
+fn require_qemu() -> PathBuf {
     require_tool(
         "qemu-system-arm",
         "apt-get install -y --no-install-recommends qemu-system-arm",
-    );
+    )
 }
 
 /// Builds the firmware for both targets, once per test process; the ELF of `target`.
@@ -203,6 +207,7 @@ fn firmware_elf(target: &str) -> PathBuf {
 
 /// What one QEMU run produced.
 struct QemuRun {
+    /// QEMU's exit status (the firmware's semihosting exit code).
     status: ExitStatus,
     /// Semihosting stdout: defmt frames.
     defmt_frames: PathBuf,
@@ -211,13 +216,13 @@ struct QemuRun {
 }
 
 /// Runs `elf` on `machine` until it exits through semihosting, or fails after a timeout.
-fn run_qemu(elf: &Path, cpu: &str, machine: &str) -> QemuRun {
-    let stem = format!("{machine}-{}", std::process::id());
+fn run_qemu(qemu: &Path, elf: &Path, cpu: &str, machine: &str) -> QemuRun {
+    let stem = format!("qemu-{machine}");
     let out_path = firmware_target_dir().join(format!("{stem}.defmt"));
     let err_path = firmware_target_dir().join(format!("{stem}.stderr"));
     let stdout = std::fs::File::create(&out_path).expect("create the QEMU stdout file");
     let stderr = std::fs::File::create(&err_path).expect("create the QEMU stderr file");
-    let mut child = Command::new("qemu-system-arm")
+    let mut child = Command::new(qemu)
         .args(["-cpu", cpu, "-machine", machine, "-nographic"])
         .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
         .arg(elf)
@@ -254,12 +259,12 @@ fn run_qemu(elf: &Path, cpu: &str, machine: &str) -> QemuRun {
 
 /// Decodes the defmt frames with `defmt-print -e elf`.
 fn decode_defmt(elf: &Path, frames: &Path) -> String {
-    require_tool(
+    let defmt_print = require_tool(
         "defmt-print",
         "cargo install defmt-print --locked --version 1.2.0",
     );
     let input = std::fs::File::open(frames).expect("open the defmt frames");
-    let out = Command::new("defmt-print")
+    let out = Command::new(defmt_print)
         .arg("-e")
         .arg(elf)
         .stdin(input)
@@ -275,10 +280,10 @@ fn decode_defmt(elf: &Path, frames: &Path) -> String {
 
 /// The firmware for `target` under QEMU equals the host replay.
 fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
-    require_qemu();
+    let qemu = require_qemu();
     let expected = host_replay();
     let elf = firmware_elf(target);
-    let run = run_qemu(&elf, cpu, machine);
+    let run = run_qemu(&qemu, &elf, cpu, machine);
     println!("{machine} ({target}) semihosting text:\n{}", run.text);
     assert!(
         run.status.success(),

@@ -8,12 +8,15 @@
 //! asserts the result is bit-exact with the host replay of the same fixture.
 //!
 //! ```text
-//! cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw   # Cortex-M4F, mps2-an386
-//! cargo run --release --target thumbv6m-none-eabi --bin sledid-fw      # Cortex-M0, microbit
+//! # Cortex-M4F (QEMU mps2-an386) and Cortex-M0 (QEMU microbit):
+//! cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
+//!     | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw
+//! cargo run --release --target thumbv6m-none-eabi --bin sledid-fw \
+//!     | defmt-print -e target/thumbv6m-none-eabi/release/sledid-fw
 //! ```
-//! The runner (`.cargo/config.toml`) is QEMU; defmt frames go to QEMU's stdout (decode them with
-//! `… | defmt-print -e target/<triple>/release/sledid-fw`), the plain-text result lines to its
-//! stderr. Built for the host, `main` prints the configuration and the host replay's result line.
+//! The runner (`.cargo/config.toml`) is QEMU. The defmt frames go to semihosting stdout (binary:
+//! pipe them into `defmt-print`), the plain-text result lines to semihosting stderr. Built for the
+//! host, `main` prints the configuration and the host replay's result line.
 //!
 //! For `count_insns.py` the image also exports `sledid_fw_bench_init` (`--init`),
 //! `sledid_fw_bench_step` (one sample as the interrupt does it: step and checksum, on record
@@ -423,6 +426,7 @@ fn main() {
     }
     println!("{RESULT_PREFIX} {}", run.summary());
     println!(
-        "Firmware: cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw (QEMU runner)."
+        "Firmware under QEMU: cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
+         | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw"
     );
 }

@@ -1,0 +1,317 @@
+//! Replay of a recording through the library's per-sample `step` — the function the firmware's timer
+//! interrupt calls — at the sampling rate (absolute deadlines, no drift) or as fast as possible, with
+//! the float64 reference beside it. Writes `trace.csv` (every sample) and `summary.json`.
+//!
+//! Nothing is dropped: a sample the boundary rejects (NaN, out of range) stops the replay with an
+//! error naming its line; the reader does the same for malformed rows.
+
+use crate::compare::relative_distance;
+use crate::recording::{ReaderOptions, RecordingReader};
+use crate::reference::batch::{rms_error, simulate};
+use crate::reference::linear::LinearF64;
+use serde_json::json;
+use sledid::conditioning::Conditioning;
+use sledid::linear::{LinearDesign, Structure};
+use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::step::{IdentifierDesign, step};
+use sledid::{Scaling, Status};
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// How fast samples are fed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rate {
+    /// As fast as possible.
+    Max,
+    /// At `factor` × real time (1 = the recording's Ts), against absolute deadlines.
+    Paced(f64),
+}
+
+impl std::str::FromStr for Rate {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "max" => Ok(Self::Max),
+            "realtime" => Ok(Self::Paced(1.0)),
+            other => match other.parse::<f64>() {
+                Ok(f) if f.is_finite() && f > 0.0 => Ok(Self::Paced(f)),
+                _ => Err(format!(
+                    "rate `{other}`: expected realtime, max or a positive factor"
+                )),
+            },
+        }
+    }
+}
+
+/// Everything a replay needs besides the file.
+#[derive(Clone, Debug)]
+pub struct ReplaySpec {
+    /// Reader settings (column mapping, Ts, scales).
+    pub reader: ReaderOptions,
+    /// Model structure.
+    pub structure: Structure,
+    /// (na, nb); na + nb ∈ {2, 3, 4}.
+    pub order: (usize, usize),
+    /// Conditioning of the raw samples.
+    pub conditioning: Conditioning,
+    /// Position unit at the boundary (m per unit), i.e. the sensor quantum or a multiple of it.
+    pub y_unit: f64,
+    /// Full-scale drive (u unit).
+    pub u_full_scale: f64,
+    /// RLS settings.
+    pub rls: RlsDesign,
+    /// Pacing.
+    pub rate: Rate,
+    /// Show a progress bar on a terminal.
+    pub progress: bool,
+}
+
+impl ReplaySpec {
+    /// Defaults: ARX(2,2) on velocity against drive, λ = 0.995, trace ≤ 100, as fast as possible.
+    pub fn new(reader: ReaderOptions) -> Self {
+        Self {
+            reader,
+            structure: Structure::Arx,
+            order: (2, 2),
+            conditioning: Conditioning::DifferencedOutput,
+            y_unit: 1.0,
+            u_full_scale: 1.0,
+            rls: RlsDesign {
+                lambda: 0.995,
+                p0: 10.0,
+                anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+                ..RlsDesign::default()
+            },
+            rate: Rate::Max,
+            progress: true,
+        }
+    }
+}
+
+/// Lateness statistics of a paced replay, µs.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Deadlines {
+    /// Median lateness of the sample start against its deadline.
+    pub p50_us: f64,
+    /// 99th percentile.
+    pub p99_us: f64,
+    /// Maximum.
+    pub max_us: f64,
+    /// Samples whose processing ended after the next sample's deadline.
+    pub overruns: usize,
+}
+
+/// What a replay produced (also written as `summary.json`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ReplaySummary {
+    /// The recording.
+    pub file: String,
+    /// Samples replayed (every row of the file).
+    pub samples: usize,
+    /// Sampling period, s.
+    pub ts_s: f64,
+    /// `max` or the pacing factor.
+    pub rate: String,
+    /// Wall-clock time of the replay, s.
+    pub wall_s: f64,
+    /// Model description.
+    pub model: String,
+    /// Final θ of the fixed-point path.
+    pub theta: Vec<f64>,
+    /// Final θ of the float64 reference on the same conditioned samples.
+    pub theta_f64: Vec<f64>,
+    /// Relative distance of the final estimates.
+    pub theta_rel_err: f64,
+    /// Simulation RMS of the final fixed-point model on the conditioned data.
+    pub sim_rms: f64,
+    /// The same for the float64 model.
+    pub sim_rms_f64: f64,
+    /// Count of every status flag.
+    pub flags: std::collections::BTreeMap<String, usize>,
+    /// Lateness statistics (paced replays only).
+    pub deadline: Option<Deadlines>,
+}
+
+/// Replays `file` into `out` (created if needed).
+///
+/// # Errors
+/// A message naming the file and line for reader errors, the sample for boundary errors, the
+/// parameter for configuration errors, and the path for I/O errors.
+pub fn replay(file: &Path, spec: &ReplaySpec, out: &Path) -> Result<ReplaySummary, String> {
+    match spec.order {
+        (1, 1) => replay_n::<2>(file, spec, out),
+        (1, 2) | (2, 1) => replay_n::<3>(file, spec, out),
+        (2, 2) => replay_n::<4>(file, spec, out),
+        (na, nb) => Err(format!(
+            "order na = {na}, nb = {nb}: supported are 1,1 / 1,2 / 2,1 / 2,2"
+        )),
+    }
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+fn replay_n<const N: usize>(
+    file: &Path,
+    spec: &ReplaySpec,
+    out: &Path,
+) -> Result<ReplaySummary, String> {
+    let mut model = LinearDesign::<N>::new(spec.structure, spec.order.0, spec.order.1);
+    model.rls = spec.rls;
+    let design = IdentifierDesign {
+        conditioning: spec.conditioning,
+        model,
+    };
+    let cfg = design.build().map_err(|e| format!("configuration: {e}"))?;
+    let scaling =
+        Scaling::new(spec.y_unit, spec.u_full_scale).map_err(|e| format!("configuration: {e}"))?;
+    let needs_r = spec.conditioning == Conditioning::CentredOnReference;
+    if needs_r && spec.reader.mapping.reference.is_none() {
+        return Err("conditioning centred-on-reference needs a reference column (r=…)".into());
+    }
+    let mut reader = RecordingReader::open(file, &spec.reader).map_err(|e| e.to_string())?;
+    let ts_s = reader.meta().ts_s;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let trace_path = out.join("trace.csv");
+    let mut trace = BufWriter::new(
+        std::fs::File::create(&trace_path).map_err(|e| format!("{}: {e}", trace_path.display()))?,
+    );
+    let theta_cols: Vec<String> = (0..N).map(|i| format!("theta{i}")).collect();
+    writeln!(
+        trace,
+        "t_s,u,y,y_c,u_c,y_hat,eps,{},flags",
+        theta_cols.join(",")
+    )
+    .map_err(|e| e.to_string())?;
+
+    let mut st = cfg.new_state();
+    let mut reference = LinearF64::new(&design.model);
+    let (mut ys, mut us) = (Vec::new(), Vec::new());
+    let mut counts = [0usize; Status::NAMES.len()];
+    // The reader streams, so the length is unknown: a counter, on terminals only.
+    let bar = (spec.progress && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new_spinner();
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {elapsed_precise} {pos} samples replayed",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        b
+    });
+    let period = match spec.rate {
+        Rate::Max => None,
+        Rate::Paced(f) => Some(Duration::from_secs_f64(ts_s / f)),
+    };
+    let mut lateness_us: Vec<f64> = Vec::new();
+    let mut overruns = 0usize;
+    let start = Instant::now();
+    let mut n = 0usize;
+    for (k, item) in reader.by_ref().enumerate() {
+        let s = item.map_err(|e| e.to_string())?;
+        if let Some(p) = period {
+            let deadline = start + p * k as u32;
+            // Sleep to just before the deadline, then spin: absolute deadlines, no drift.
+            let now = Instant::now();
+            if deadline > now + Duration::from_micros(200) {
+                std::thread::sleep(deadline - now - Duration::from_micros(150));
+            }
+            while Instant::now() < deadline {
+                std::hint::spin_loop();
+            }
+            lateness_us.push((Instant::now() - deadline).as_secs_f64() * 1e6);
+        }
+        let r = s.r.unwrap_or(0.0);
+        let sample = scaling
+            .sample(s.y, s.u, r)
+            .map_err(|e| format!("{}: sample {} (t = {} s): {e}", file.display(), k, s.t_s))?;
+        let o = step(&cfg, &mut st, &sample);
+        if let Some(p) = period
+            && Instant::now() > start + p * (k as u32 + 1)
+        {
+            overruns += 1;
+        }
+        for (c, (flag, _)) in counts.iter_mut().zip(Status::NAMES.iter()) {
+            *c += usize::from(o.status.contains(*flag));
+        }
+        if !o.status.contains(Status::WARMUP) {
+            reference.step(o.y.to_f64(), o.u.to_f64());
+            ys.push(o.y.to_f64());
+            us.push(o.u.to_f64());
+        }
+        let th: Vec<String> = o.theta.iter().map(|p| p.to_f64().to_string()).collect();
+        writeln!(
+            trace,
+            "{},{},{},{},{},{},{},{},{}",
+            s.t_s,
+            s.u,
+            s.y,
+            o.y.to_f64(),
+            o.u.to_f64(),
+            o.y_hat.to_f64(),
+            o.eps.to_f64(),
+            th.join(","),
+            o.status.bits()
+        )
+        .map_err(|e| e.to_string())?;
+        n += 1;
+        if let Some(b) = &bar
+            && n % 4096 == 0
+        {
+            b.set_position(n as u64);
+        }
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    trace.flush().map_err(|e| e.to_string())?;
+    let theta: Vec<f64> = st.model().theta().iter().map(|p| p.to_f64()).collect();
+    let theta_f64 = reference.theta().to_vec();
+    let na = spec.order.0;
+    let deadline = period.map(|_| {
+        let mut sorted = lateness_us.clone();
+        sorted.sort_by(f64::total_cmp);
+        Deadlines {
+            p50_us: percentile(&sorted, 0.5),
+            p99_us: percentile(&sorted, 0.99),
+            max_us: sorted.last().copied().unwrap_or(0.0),
+            overruns,
+        }
+    });
+    let summary = ReplaySummary {
+        file: file.display().to_string(),
+        samples: n,
+        ts_s,
+        rate: match spec.rate {
+            Rate::Max => "max".into(),
+            Rate::Paced(f) => format!("{f}"),
+        },
+        wall_s,
+        model: format!(
+            "{:?}({},{}) conditioning {:?}",
+            spec.structure, spec.order.0, spec.order.1, spec.conditioning
+        ),
+        theta_rel_err: relative_distance(&theta, &theta_f64),
+        sim_rms: rms_error(&simulate(&theta, &us, na, 1), &ys),
+        sim_rms_f64: rms_error(&simulate(&theta_f64, &us, na, 1), &ys),
+        theta,
+        theta_f64,
+        flags: Status::NAMES
+            .iter()
+            .zip(counts.iter())
+            .map(|((_, name), c)| ((*name).to_owned(), *c))
+            .collect(),
+        deadline,
+    };
+    let text = serde_json::to_string_pretty(&json!(summary)).map_err(|e| e.to_string())?;
+    let summary_path: PathBuf = out.join("summary.json");
+    std::fs::write(&summary_path, text).map_err(|e| format!("{}: {e}", summary_path.display()))?;
+    Ok(summary)
+}

@@ -1,0 +1,171 @@
+//! `replay` end to end on every bundled dataset: every row replayed through the per-sample step,
+//! trace and summary written, and the fixed-point estimate within tolerance of float64.
+
+use sledid::conditioning::Conditioning;
+use sledid::rls::{AntiWindup, RlsDesign};
+use sledid_host::recording::ReaderOptions;
+use sledid_host::replay::{Rate, ReplaySpec, replay};
+use std::path::PathBuf;
+
+fn data(rel: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")).join(rel)
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("sledid-replay-test-{}-{name}", std::process::id()))
+}
+
+fn spec(
+    columns: &str,
+    ts: Option<f64>,
+    conditioning: Conditioning,
+    y_unit: f64,
+    u_full_scale: f64,
+) -> ReplaySpec {
+    let mut reader = ReaderOptions::new(columns.parse().expect("mapping"));
+    reader.ts_s = ts;
+    let mut s = ReplaySpec::new(reader);
+    s.conditioning = conditioning;
+    s.y_unit = y_unit;
+    s.u_full_scale = u_full_scale;
+    s.progress = false;
+    s
+}
+
+fn check(name: &str, file: PathBuf, s: &ReplaySpec, rows: usize, tol: f64) {
+    let out = out_dir(name);
+    let sum = replay(&file, s, &out).expect("replay");
+    println!(
+        "{name}: {} samples, θ rel. err {:.2e}, sim RMS {:.4} vs f64 {:.4}, {:.3} s",
+        sum.samples, sum.theta_rel_err, sum.sim_rms, sum.sim_rms_f64, sum.wall_s
+    );
+    assert_eq!(sum.samples, rows, "{name}: every row replayed");
+    let trace = std::fs::read_to_string(out.join("trace.csv")).expect("trace");
+    assert_eq!(
+        trace.lines().count(),
+        rows + 1,
+        "{name}: one trace line per sample"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary"))
+            .expect("json");
+    for key in [
+        "samples",
+        "ts_s",
+        "rate",
+        "wall_s",
+        "theta",
+        "theta_f64",
+        "sim_rms",
+        "flags",
+    ] {
+        assert!(summary.get(key).is_some(), "{name}: summary lacks {key}");
+    }
+    assert!(sum.flags["updated"] > rows / 2, "{name}: {:?}", sum.flags);
+    assert!(
+        sum.theta_rel_err < tol,
+        "{name}: θ rel. err {}",
+        sum.theta_rel_err
+    );
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn emps_velocity_model() {
+    let s = spec(
+        "u=vir_ctrl_V,y=qm_meas_pos_m,r=qg_ref_pos_m,t=t_s",
+        None,
+        Conditioning::DifferencedOutput,
+        1e-5,
+        10.0,
+    );
+    check("emps", data("emps/DATA_EMPS.csv"), &s, 24_841, 1e-3);
+}
+
+#[test]
+fn silverbox_arx() {
+    let mut s = spec(
+        "u=V1,y=V2",
+        Some(1.0 / 610.35),
+        Conditioning::None,
+        1e-3,
+        0.1,
+    );
+    s.rls = RlsDesign {
+        lambda: 1.0,
+        p0: 10.0,
+        anti_windup: AntiWindup::None,
+        ..RlsDesign::default()
+    };
+    check(
+        "silverbox",
+        data("silverbox/SNLS80mV.csv"),
+        &s,
+        131_072,
+        1e-3,
+    );
+}
+
+#[test]
+fn daisy_cd_arm_arx() {
+    let mut s = spec(
+        "u=u2_force,y=y2_tracking",
+        Some(1.0),
+        Conditioning::None,
+        0.01,
+        1.0,
+    );
+    s.rls = RlsDesign {
+        lambda: 1.0,
+        p0: 10.0,
+        anti_windup: AntiWindup::None,
+        ..RlsDesign::default()
+    };
+    check("daisy", data("daisy/cd_player_arm.csv"), &s, 2_048, 1e-3);
+}
+
+#[test]
+fn paced_replay_reports_deadlines() {
+    // The first 400 rows of EMPS, replayed at 20× real time (50 µs per sample).
+    let text = std::fs::read_to_string(data("emps/DATA_EMPS.csv")).expect("emps");
+    let excerpt: String = text.lines().take(401).map(|l| format!("{l}\n")).collect();
+    let dir = out_dir("paced");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let file = dir.join("excerpt.csv");
+    std::fs::write(&file, excerpt).expect("write");
+    let mut s = spec(
+        "u=vir_ctrl_V,y=qm_meas_pos_m,t=t_s",
+        None,
+        Conditioning::DifferencedOutput,
+        1e-5,
+        10.0,
+    );
+    s.rate = Rate::Paced(20.0);
+    let sum = replay(&file, &s, &dir.join("out")).expect("replay");
+    let d = sum.deadline.expect("deadline statistics");
+    println!(
+        "paced ×20: lateness p50 {:.1} µs p99 {:.1} µs max {:.1} µs, overruns {}",
+        d.p50_us, d.p99_us, d.max_us, d.overruns
+    );
+    assert_eq!(sum.samples, 400);
+    assert!(d.p50_us >= 0.0 && d.p99_us >= d.p50_us && d.max_us >= d.p99_us);
+    // 400 samples at 50 µs cannot take less than 20 ms.
+    assert!(sum.wall_s >= 400.0 * 50e-6 * 0.99, "wall {}", sum.wall_s);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_sample_outside_the_format_stops_the_replay_naming_it() {
+    // A position unit of 1e-12 m puts EMPS far outside the I48F16 range on the first moving sample.
+    let s = spec(
+        "u=vir_ctrl_V,y=qm_meas_pos_m,t=t_s",
+        None,
+        Conditioning::DifferencedOutput,
+        1e-30,
+        10.0,
+    );
+    let err = replay(&data("emps/DATA_EMPS.csv"), &s, &out_dir("bad")).expect_err("must fail");
+    assert!(err.contains("sample 0"), "{err}");
+    assert!(err.contains("position"), "{err}");
+    let _ = std::fs::remove_dir_all(out_dir("bad"));
+}
