@@ -262,7 +262,7 @@ fn replay_n<const N: usize>(
         .map_err(|e| e.to_string())?;
         n += 1;
         if let Some(b) = &bar
-            && n % 4096 == 0
+            && n.is_multiple_of(4096)
         {
             b.set_position(n as u64);
         }
