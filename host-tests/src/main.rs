@@ -29,6 +29,22 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Simulate the sled in closed loop with the paper's baseline controller and write a recording
+    /// (t_s, r_m, u_v, y_m) plus a JSON sidecar with every parameter and the seed.
+    Twin {
+        /// Seed of the seek schedule and the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Plant, reference and controller parameters (JSON; missing keys take the defaults).
+        #[arg(long)]
+        plant: Option<PathBuf>,
+        /// Number of seeks (overrides the file).
+        #[arg(long)]
+        seeks: Option<u32>,
+        /// Output CSV; the sidecar is written next to it with the extension `.json`.
+        #[arg(long, default_value = "out/twin.csv")]
+        out: PathBuf,
+    },
     /// Replay recordings through the per-sample step (the firmware's function) and its float64
     /// reference: DIR/<name>/trace.csv and summary.json. Several files run in parallel.
     Replay(ReplayArgs),
@@ -159,6 +175,38 @@ fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
         })
         .collect();
     results.into_iter().collect()
+}
+
+fn twin_cmd(
+    seed: u64,
+    plant: Option<&std::path::Path>,
+    seeks: Option<u32>,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let mut params = match plant {
+        Some(p) => TwinParams::from_json_file(p).map_err(|e| e.to_string())?,
+        None => TwinParams::default(),
+    };
+    if let Some(n) = seeks {
+        params.reference.seek_count = n;
+    }
+    params.validate().map_err(|e| e.to_string())?;
+    let twin = Twin::run_baseline(params, seed).map_err(|e| e.to_string())?;
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    twin.write_csv(out).map_err(|e| e.to_string())?;
+    println!(
+        "{} samples, {} seeks → {} (+ {})",
+        twin.samples().len(),
+        twin.seeks().len(),
+        out.display(),
+        out.with_extension("json").display()
+    );
+    for (k, st) in twin.seek_stats().iter().enumerate() {
+        println!("  seek {k}: {st:?}");
+    }
+    Ok(())
 }
 
 /// The identifier the demo runs: velocity against drive (the sled integrates), ARX(2,2), λ = 0.995,
@@ -295,6 +343,12 @@ fn main() -> ExitCode {
     }) {
         Command::Demo { seed, out } => demo(seed, &out),
         Command::Replay(args) => replay_cmd(&args),
+        Command::Twin {
+            seed,
+            plant,
+            seeks,
+            out,
+        } => twin_cmd(seed, plant.as_deref(), seeks, &out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
