@@ -62,6 +62,10 @@ pub enum ConfigError {
     DeadZone(f64),
     /// Excitation threshold negative or not finite.
     ExcitationThreshold(f64),
+    /// Outlier threshold negative, not finite, outside the signal format, or inside the dead zone.
+    OutlierThreshold(f64),
+    /// Stuck-sensor check: sample count or minimum drive out of range.
+    StuckSensor(f64),
     /// Covariance limit (trace, diagonal or constant trace) not positive or not finite.
     CovarianceLimit(f64),
     /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
@@ -100,6 +104,14 @@ impl fmt::Display for ConfigError {
             Self::ExcitationThreshold(v) => {
                 write!(f, "excitation_threshold = {v}: must be finite and ≥ 0")
             }
+            Self::OutlierThreshold(v) => write!(
+                f,
+                "outlier_threshold = {v}: must be 0 (off) or finite, above the dead zone and < 32768"
+            ),
+            Self::StuckSensor(v) => write!(
+                f,
+                "stuck-sensor check = {v}: the minimum drive must be finite, in (0, 32768), with ≥ 2 samples"
+            ),
             Self::CovarianceLimit(v) => {
                 write!(f, "covariance limit = {v}: must be finite and > 0")
             }

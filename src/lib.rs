@@ -19,10 +19,12 @@
 
 pub mod boundary;
 pub mod conditioning;
+pub mod decimate;
 pub mod dyadic;
 pub mod error;
 pub mod fixed;
 pub mod linear;
+pub mod neuron;
 pub mod regressor;
 pub mod rls;
 pub mod stability;

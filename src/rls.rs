@@ -116,6 +116,12 @@ pub struct RlsDesign {
     pub excitation_threshold: f64,
     /// Covariance limit.
     pub anti_windup: AntiWindup,
+    /// Outlier gate: updates with |ε| above this (signal units) are skipped as sensor spikes; 0
+    /// disables it.
+    pub outlier_threshold: f64,
+    /// After this many consecutive outliers the gate opens again (a persistent "outlier" is a plant
+    /// change — a reversed sensor, a mass step — that the estimator must follow, not ignore).
+    pub outlier_limit: u16,
 }
 
 impl Default for RlsDesign {
@@ -126,6 +132,8 @@ impl Default for RlsDesign {
             dead_zone: 0.0,
             excitation_threshold: 0.0,
             anti_windup: AntiWindup::None,
+            outlier_threshold: 0.0,
+            outlier_limit: 16,
         }
     }
 }
@@ -150,6 +158,8 @@ pub struct RlsConfig {
     dead_zone_i16f16: u32,
     excitation_min: Dyadic,
     bound: Bound,
+    outlier_i16f16: u32,
+    outlier_limit: u16,
 }
 
 fn positive_dyadic(x: f64, err: ConfigError) -> Result<Dyadic, ConfigError> {
@@ -183,6 +193,14 @@ impl RlsDesign {
         }
         let dz = SignalI16F16::from_f64(self.dead_zone)
             .map_err(|_| ConfigError::DeadZone(self.dead_zone))?;
+        if self.outlier_threshold.is_nan() || self.outlier_threshold < 0.0 {
+            return Err(ConfigError::OutlierThreshold(self.outlier_threshold));
+        }
+        let outlier = SignalI16F16::from_f64(self.outlier_threshold)
+            .map_err(|_| ConfigError::OutlierThreshold(self.outlier_threshold))?;
+        if outlier.raw() != 0 && outlier.raw() <= dz.raw() {
+            return Err(ConfigError::OutlierThreshold(self.outlier_threshold));
+        }
         let excitation_min = match Dyadic::from_f64(self.excitation_threshold) {
             Some(d) if !d.is_saturated() => d,
             _ => return Err(ConfigError::ExcitationThreshold(self.excitation_threshold)),
@@ -206,6 +224,8 @@ impl RlsDesign {
             dead_zone_i16f16: dz.raw().unsigned_abs(),
             excitation_min,
             bound,
+            outlier_i16f16: outlier.raw().unsigned_abs(),
+            outlier_limit: self.outlier_limit,
         })
     }
 }
@@ -218,6 +238,8 @@ pub struct RlsState<const N: usize> {
     u_i8f24: [[i32; N]; N],
     d: [Dyadic; N],
     enabled: bool,
+    /// Consecutive samples rejected by the outlier gate.
+    outliers_in_a_row: u16,
 }
 
 impl<const N: usize> RlsState<N> {
@@ -231,6 +253,7 @@ impl<const N: usize> RlsState<N> {
             u_i8f24: [[0; N]; N],
             d: [config.p0; N],
             enabled: true,
+            outliers_in_a_row: 0,
         }
     }
 
@@ -355,9 +378,36 @@ impl RlsConfig {
         if !st.enabled {
             return Status::HELD;
         }
-        if eps.raw().unsigned_abs() <= self.dead_zone_i16f16 && self.dead_zone_i16f16 > 0 {
+        let e_abs = eps.raw().unsigned_abs();
+        if e_abs <= self.dead_zone_i16f16 && self.dead_zone_i16f16 > 0 {
+            st.outliers_in_a_row = 0;
             return Status::DEAD_ZONE;
         }
+        let mut gate_reopened = false;
+        if self.outlier_i16f16 > 0 && e_abs > self.outlier_i16f16 {
+            if st.outliers_in_a_row < self.outlier_limit {
+                st.outliers_in_a_row = st.outliers_in_a_row.saturating_add(1);
+                return Status::OUTLIER;
+            }
+            gate_reopened = true;
+        } else {
+            st.outliers_in_a_row = 0;
+        }
+        let status = self.update_gated(st, psi, eps);
+        if gate_reopened {
+            status | Status::OUTLIER
+        } else {
+            status
+        }
+    }
+
+    /// The update proper, after the hold, dead-zone and outlier gates.
+    fn update_gated<const N: usize>(
+        &self,
+        st: &mut RlsState<N>,
+        psi: &[SignalI16F16; N],
+        eps: SignalI16F16,
+    ) -> Status {
         let mut sat = false;
 
         // f = Uᵀψ, exactly, in I24F40.

@@ -35,9 +35,13 @@ impl Status {
     /// No model step this sample: the conditioning stage is priming (first sample of a differenced
     /// stream).
     pub const WARMUP: Self = Self(1 << 11);
+    /// Update skipped (or, after too many in a row, accepted) because |ε| exceeded the outlier gate.
+    pub const OUTLIER: Self = Self(1 << 12);
+    /// The position sensor looks stuck (no change while driven): the estimator is held.
+    pub const SENSOR_STUCK: Self = Self(1 << 13);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 12] = [
+    pub const NAMES: [(Self, &'static str); 14] = [
         (Self::UPDATED, "updated"),
         (Self::DEAD_ZONE, "dead_zone"),
         (Self::LOW_EXCITATION, "low_excitation"),
@@ -50,6 +54,8 @@ impl Status {
         (Self::INPUT_REJECTED, "input_rejected"),
         (Self::TRACE_NORMALISED, "trace_normalised"),
         (Self::WARMUP, "warmup"),
+        (Self::OUTLIER, "outlier"),
+        (Self::SENSOR_STUCK, "sensor_stuck"),
     ];
 
     /// The raw bits.

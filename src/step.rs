@@ -2,15 +2,33 @@
 //! closed-loop twin and the tests all call, so what is tested is what runs.
 //!
 //! `step(config, state, sample) → StepOutput`: condition the raw sample (centre on the reference or
-//! difference, [`crate::regressor::Conditioning`]), run the identifier (ARX or OE, [`crate::linear`]),
-//! and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
+//! difference, [`crate::conditioning::Conditioning`]), run the identifier (ARX or OE,
+//! [`crate::linear`]), and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
+//!
+//! # Degradation on bad input (documented and tested in `host-tests/tests/faults.rs`)
+//! - A sample the boundary cannot convert (NaN, ±∞, out of range, a missing reading) is passed as
+//!   [`reject`]: θ and P are held, the output carries [`Status::INPUT_REJECTED`], and the
+//!   conditioning re-primes (differences never span the gap: the next sample is a
+//!   [`Status::WARMUP`]).
+//! - Stuck sensor ([`StuckSensorDesign`]): when y has not changed for `samples` consecutive samples
+//!   while |u| ≥ `min_drive`, adaptation is held ([`Status::SENSOR_STUCK`]) until y moves again.
+//! - Spikes and reversed signs are the estimator's outlier gate ([`crate::rls::RlsDesign`]).
 
-use crate::boundary::Sample;
+use crate::boundary::{PositionI48F16, Sample};
 use crate::conditioning::{Conditioning, ConditioningState};
 use crate::error::ConfigError;
 use crate::fixed::{ParamI12F20, SignalI16F16};
 use crate::linear::{LinearConfig, LinearDesign, LinearState};
 use crate::status::Status;
+
+/// Stuck-sensor detection: y unchanged for `samples` consecutive samples while |u| ≥ `min_drive`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StuckSensorDesign {
+    /// Consecutive unchanged samples (≥ 2).
+    pub samples: u32,
+    /// Minimum |u| (fraction of full scale) for "driven".
+    pub min_drive: f64,
+}
 
 /// User-facing settings of the identifier.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,17 +37,51 @@ pub struct IdentifierDesign<const N: usize> {
     pub conditioning: Conditioning,
     /// The linear model estimator.
     pub model: LinearDesign<N>,
+    /// Stuck-sensor detection (`None`: off).
+    pub stuck_sensor: Option<StuckSensorDesign>,
+}
+
+/// Quantised stuck-sensor check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct StuckSensor {
+    samples: u32,
+    min_drive_i16f16: u32,
 }
 
 impl<const N: usize> IdentifierDesign<N> {
+    /// A design without stuck-sensor detection.
+    pub fn new(conditioning: Conditioning, model: LinearDesign<N>) -> Self {
+        Self {
+            conditioning,
+            model,
+            stuck_sensor: None,
+        }
+    }
+
     /// Validates and quantises.
     ///
     /// # Errors
-    /// The model's [`ConfigError`].
+    /// The model's [`ConfigError`], or [`ConfigError::StuckSensor`].
     pub fn build(&self) -> Result<IdentifierConfig<N>, ConfigError> {
+        let stuck = match self.stuck_sensor {
+            None => None,
+            Some(d) => {
+                let drive = SignalI16F16::from_f64(d.min_drive)
+                    .map_err(|_| ConfigError::StuckSensor(d.min_drive))?;
+                if d.samples < 2 || drive.raw() <= 0 {
+                    return Err(ConfigError::StuckSensor(d.min_drive));
+                }
+                Some(StuckSensor {
+                    samples: d.samples,
+                    min_drive_i16f16: drive.raw().unsigned_abs(),
+                })
+            }
+        };
         Ok(IdentifierConfig {
             conditioning: self.conditioning,
             model: self.model.build()?,
+            stuck,
         })
     }
 }
@@ -40,6 +92,7 @@ impl<const N: usize> IdentifierDesign<N> {
 pub struct IdentifierConfig<const N: usize> {
     conditioning: Conditioning,
     model: LinearConfig<N>,
+    stuck: Option<StuckSensor>,
 }
 
 /// Everything the identifier mutates.
@@ -47,6 +100,10 @@ pub struct IdentifierConfig<const N: usize> {
 pub struct IdentifierState<const N: usize> {
     conditioning: ConditioningState,
     model: LinearState<N>,
+    /// Adaptation enabled by the user (the stuck-sensor hold comes on top).
+    enabled: bool,
+    last_y: PositionI48F16,
+    unchanged: u32,
 }
 
 /// What one step produced.
@@ -73,6 +130,9 @@ impl<const N: usize> IdentifierConfig<N> {
         IdentifierState {
             conditioning: ConditioningState::default(),
             model: self.model.new_state(),
+            enabled: true,
+            last_y: PositionI48F16::default(),
+            unchanged: 0,
         }
     }
 
@@ -95,6 +155,7 @@ impl<const N: usize> IdentifierState<N> {
 
     /// Holds (false) or enables (true) adaptation.
     pub fn set_enabled(&mut self, enabled: bool) {
+        self.enabled = enabled;
         self.model.set_enabled(enabled);
     }
 }
@@ -106,6 +167,17 @@ pub fn step<const N: usize>(
     sample: &Sample,
 ) -> StepOutput<N> {
     let mut sat = false;
+    let stuck = config.stuck.is_some_and(|c| {
+        let driven = sample.u.raw().unsigned_abs() >= c.min_drive_i16f16;
+        if sample.y == state.last_y && driven {
+            state.unchanged = state.unchanged.saturating_add(1);
+        } else if sample.y != state.last_y {
+            state.unchanged = 0;
+        }
+        state.unchanged >= c.samples
+    });
+    state.last_y = sample.y;
+    state.model.set_enabled(state.enabled && !stuck);
     let Some((y, u)) = config
         .conditioning
         .apply(&mut state.conditioning, sample, &mut sat)
@@ -122,6 +194,7 @@ pub fn step<const N: usize>(
     let est = config.model.step(&mut state.model, y, u);
     let mut status = est.status;
     status.set_if(Status::SATURATED, sat);
+    status.set_if(Status::SENSOR_STUCK, stuck);
     StepOutput {
         y,
         u,
@@ -129,5 +202,22 @@ pub fn step<const N: usize>(
         eps: est.eps,
         theta: *state.model.theta(),
         status,
+    }
+}
+
+/// A sample that could not be read or converted (NaN, ±∞, out of range, missing): θ and P are held,
+/// the conditioning re-primes so no difference spans the gap. Never panics.
+pub fn reject<const N: usize>(
+    _config: &IdentifierConfig<N>,
+    state: &mut IdentifierState<N>,
+) -> StepOutput<N> {
+    state.conditioning = ConditioningState::default();
+    StepOutput {
+        y: SignalI16F16::ZERO,
+        u: SignalI16F16::ZERO,
+        y_hat: SignalI16F16::ZERO,
+        eps: SignalI16F16::ZERO,
+        theta: *state.model.theta(),
+        status: Status::INPUT_REJECTED,
     }
 }

@@ -89,14 +89,37 @@ pub fn mul_u32_wide_by_halves(a: u32, b: u32) -> u64 {
 /// Exact `a · b` as `i64` for signed `a` and unsigned `b`.
 #[inline(always)]
 pub fn mul_i32_u32_wide(a: i32, b: u32) -> i64 {
-    let p = mul_u32_wide(a.unsigned_abs(), b) as i64; // < 2^63: |a| ≤ 2^31, b < 2^32
-    if a < 0 { -p } else { p }
+    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+    {
+        let p = mul_u32_wide_by_halves(a.unsigned_abs(), b) as i64; // < 2^63
+        if a < 0 { -p } else { p }
+    }
+    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    {
+        // One SMULL-class multiply on Armv7-M; |a·b| < 2^63.
+        i64::from(a) * i64::from(b)
+    }
 }
 
 /// Exact `a · b` as `i64` for signed operands.
 #[inline(always)]
 pub fn mul_i32_wide(a: i32, b: i32) -> i64 {
-    let p = mul_u32_wide(a.unsigned_abs(), b.unsigned_abs()) as i64; // ≤ 2^62
+    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+    {
+        let p = mul_u32_wide_by_halves(a.unsigned_abs(), b.unsigned_abs()) as i64; // ≤ 2^62
+        if (a < 0) != (b < 0) { -p } else { p }
+    }
+    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+    {
+        // One SMULL on Armv7-M; |a·b| ≤ 2^62.
+        i64::from(a) * i64::from(b)
+    }
+}
+
+/// The Armv6-M path of [`mul_i32_wide`], callable on every target so the tests can compare paths.
+#[inline]
+pub fn mul_i32_wide_by_halves(a: i32, b: i32) -> i64 {
+    let p = mul_u32_wide_by_halves(a.unsigned_abs(), b.unsigned_abs()) as i64;
     if (a < 0) != (b < 0) { -p } else { p }
 }
 
@@ -156,6 +179,16 @@ mod tests {
             }
         }
         assert_eq!(mul_i32_wide(i32::MIN, i32::MIN), 1 << 62);
+        for &a in &[0i32, 1, -1, i32::MAX, i32::MIN, 12345, -98765, 0x4000_0000] {
+            for &b in &[0i32, 1, -1, i32::MAX, i32::MIN, -7, 65536] {
+                assert_eq!(
+                    mul_i32_wide_by_halves(a, b),
+                    i64::from(a) * i64::from(b),
+                    "{a} {b}"
+                );
+                assert_eq!(mul_i32_wide(a, b), i64::from(a) * i64::from(b));
+            }
+        }
         for x in [
             0u64,
             1,

@@ -2,6 +2,7 @@
 #![forbid(unsafe_code)]
 
 pub mod compare;
+pub mod faults;
 pub mod plants;
 pub mod recording;
 pub mod reference;

@@ -47,7 +47,7 @@ enum Command {
     },
     /// Replay recordings through the per-sample step (the firmware's function) and its float64
     /// reference: DIR/<name>/trace.csv and summary.json. Several files run in parallel.
-    Replay(ReplayArgs),
+    Replay(Box<ReplayArgs>),
     /// Generate a twin recording, replay it through the fixed-point identifier and its float64
     /// reference, write DIR/trace.csv and DIR/summary.json.
     Demo {
@@ -98,6 +98,26 @@ struct ReplayArgs {
     /// Dead zone on |ε| in y units (0: none).
     #[arg(long, default_value_t = 0.0)]
     dead_zone: f64,
+    /// Outlier gate on |ε| in y units (0: none).
+    #[arg(long, default_value_t = 0.0)]
+    outlier: f64,
+    /// Consecutive outliers after which the gate reopens.
+    #[arg(long, default_value_t = 16)]
+    outlier_limit: u16,
+    /// Stuck-sensor check: samples of unchanged y while driven (0: off).
+    #[arg(long, default_value_t = 0)]
+    stuck_samples: u32,
+    /// Stuck-sensor check: minimum |u| (fraction of full scale) for "driven".
+    #[arg(long, default_value_t = 0.1)]
+    stuck_drive: f64,
+    /// Inject a fault: spike:at=N,mag=M[,every=K] | stuck:from=N,len=L | missing:from=N,len=L |
+    /// nan:at=N | flip:from=N (repeatable).
+    #[arg(long)]
+    inject: Vec<String>,
+    /// What to do with a sample that cannot enter the fixed-point path: stop (error naming it) or
+    /// hold (freeze the estimator for it, flag it, go on).
+    #[arg(long, default_value = "stop", value_parser = ["stop", "hold"])]
+    on_bad_sample: String,
     /// realtime, max, or a factor of real time.
     #[arg(long, default_value = "max")]
     rate: String,
@@ -150,6 +170,22 @@ fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
             AntiWindup::None
         },
         ..RlsDesign::default()
+    };
+    spec.rls.outlier_threshold = a.outlier;
+    spec.rls.outlier_limit = a.outlier_limit;
+    spec.stuck_sensor = (a.stuck_samples > 0).then_some(sledid::step::StuckSensorDesign {
+        samples: a.stuck_samples,
+        min_drive: a.stuck_drive,
+    });
+    spec.faults = a
+        .inject
+        .iter()
+        .map(|f| f.parse())
+        .collect::<Result<_, _>>()?;
+    spec.on_bad_sample = if a.on_bad_sample == "hold" {
+        sledid_host::replay::BadSample::Hold
+    } else {
+        sledid_host::replay::BadSample::Stop
     };
     spec.rate = a.rate.parse()?;
     spec.progress = a.files.len() == 1;
@@ -219,10 +255,7 @@ fn demo_design() -> IdentifierDesign<4> {
         anti_windup: AntiWindup::TraceLimit { max: 100.0 },
         ..RlsDesign::default()
     };
-    IdentifierDesign {
-        conditioning: Conditioning::DifferencedOutput,
-        model,
-    }
+    IdentifierDesign::new(Conditioning::DifferencedOutput, model)
 }
 
 fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {

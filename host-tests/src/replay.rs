@@ -2,10 +2,14 @@
 //! interrupt calls — at the sampling rate (absolute deadlines, no drift) or as fast as possible, with
 //! the float64 reference beside it. Writes `trace.csv` (every sample) and `summary.json`.
 //!
-//! Nothing is dropped: a sample the boundary rejects (NaN, out of range) stops the replay with an
-//! error naming its line; the reader does the same for malformed rows.
+//! Nothing is dropped silently: a malformed row stops the reader with an error naming its line; a
+//! sample the boundary rejects (NaN, out of range) or a lost reading either stops the replay with an
+//! error naming the sample ([`BadSample::Stop`], the default) or is held — written to the trace with
+//! `input_rejected`, estimator frozen for that sample, conditioning re-primed ([`BadSample::Hold`],
+//! what the firmware does). Faults can be injected ([`crate::faults`]).
 
 use crate::compare::relative_distance;
+use crate::faults::{Fault, Injector, Reading};
 use crate::recording::{ReaderOptions, RecordingReader};
 use crate::reference::batch::{rms_error, simulate};
 use crate::reference::linear::LinearF64;
@@ -13,7 +17,7 @@ use serde_json::json;
 use sledid::conditioning::Conditioning;
 use sledid::linear::{LinearDesign, Structure};
 use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, step};
+use sledid::step::{IdentifierDesign, StuckSensorDesign, reject, step};
 use sledid::{Scaling, Status};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -44,6 +48,15 @@ impl std::str::FromStr for Rate {
     }
 }
 
+/// What to do with a sample that cannot enter the fixed-point path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BadSample {
+    /// Stop with an error naming the sample.
+    Stop,
+    /// Hold the estimator for that sample and go on (flagged `input_rejected` in the trace).
+    Hold,
+}
+
 /// Everything a replay needs besides the file.
 #[derive(Clone, Debug)]
 pub struct ReplaySpec {
@@ -65,6 +78,12 @@ pub struct ReplaySpec {
     pub rate: Rate,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// Faults injected into the stream.
+    pub faults: Vec<Fault>,
+    /// Policy for samples that cannot enter the fixed-point path.
+    pub on_bad_sample: BadSample,
+    /// Stuck-sensor detection.
+    pub stuck_sensor: Option<StuckSensorDesign>,
 }
 
 impl ReplaySpec {
@@ -85,6 +104,9 @@ impl ReplaySpec {
             },
             rate: Rate::Max,
             progress: true,
+            faults: Vec::new(),
+            on_bad_sample: BadSample::Stop,
+            stuck_sensor: None,
         }
     }
 }
@@ -164,10 +186,9 @@ fn replay_n<const N: usize>(
 ) -> Result<ReplaySummary, String> {
     let mut model = LinearDesign::<N>::new(spec.structure, spec.order.0, spec.order.1);
     model.rls = spec.rls;
-    let design = IdentifierDesign {
-        conditioning: spec.conditioning,
-        model,
-    };
+    let mut design = IdentifierDesign::new(spec.conditioning, model);
+    design.stuck_sensor = spec.stuck_sensor;
+    let mut injector = Injector::new(spec.faults.clone());
     let cfg = design.build().map_err(|e| format!("configuration: {e}"))?;
     let scaling =
         Scaling::new(spec.y_unit, spec.u_full_scale).map_err(|e| format!("configuration: {e}"))?;
@@ -227,11 +248,23 @@ fn replay_n<const N: usize>(
             }
             lateness_us.push((Instant::now() - deadline).as_secs_f64() * 1e6);
         }
-        let r = s.r.unwrap_or(0.0);
-        let sample = scaling
-            .sample(s.y, s.u, r)
-            .map_err(|e| format!("{}: sample {} (t = {} s): {e}", file.display(), k, s.t_s))?;
-        let o = step(&cfg, &mut st, &sample);
+        let reading = injector.apply(k, s);
+        let converted = match reading {
+            Reading::Present(x) => scaling
+                .sample(x.y, x.u, x.r.unwrap_or(0.0))
+                .map_err(|e| format!("{}: sample {} (t = {} s): {e}", file.display(), k, s.t_s)),
+            Reading::Missing => Err(format!(
+                "{}: sample {} (t = {} s): reading lost",
+                file.display(),
+                k,
+                s.t_s
+            )),
+        };
+        let (s, o) = match (converted, spec.on_bad_sample) {
+            (Ok(sample), _) => (s, step(&cfg, &mut st, &sample)),
+            (Err(e), BadSample::Stop) => return Err(e),
+            (Err(_), BadSample::Hold) => (s, reject(&cfg, &mut st)),
+        };
         if let Some(p) = period
             && Instant::now() > start + p * (k as u32 + 1)
         {
@@ -240,7 +273,7 @@ fn replay_n<const N: usize>(
         for (c, (flag, _)) in counts.iter_mut().zip(Status::NAMES.iter()) {
             *c += usize::from(o.status.contains(*flag));
         }
-        if !o.status.contains(Status::WARMUP) {
+        if !o.status.intersects(Status::WARMUP | Status::INPUT_REJECTED) {
             reference.step(o.y.to_f64(), o.u.to_f64());
             ys.push(o.y.to_f64());
             us.push(o.u.to_f64());

@@ -37,14 +37,21 @@ fn design() -> impl Strategy<Value = RlsDesign> {
         0.0f64..4.0,
         prop_oneof![Just(0.0), 1e-9f64..1e3],
         anti_windup(),
+        prop_oneof![Just(None), (0.1f64..100.0).prop_map(Some)],
+        1u16..64,
     )
         .prop_map(
-            |(lambda, p0, dead_zone, excitation_threshold, anti_windup)| RlsDesign {
-                lambda,
-                p0,
-                dead_zone,
-                excitation_threshold,
-                anti_windup,
+            |(lambda, p0, dead_zone, excitation_threshold, anti_windup, outlier, outlier_limit)| {
+                RlsDesign {
+                    lambda,
+                    p0,
+                    dead_zone,
+                    excitation_threshold,
+                    anti_windup,
+                    // The gate must sit above the dead zone.
+                    outlier_threshold: outlier.map_or(0.0, |o| dead_zone + o),
+                    outlier_limit,
+                }
             },
         )
 }
@@ -131,7 +138,7 @@ proptest! {
     ) {
         let mut model = LinearDesign::<4>::new(structure, 2, 2);
         model.rls = d;
-        let cfg = IdentifierDesign { conditioning, model }.build().unwrap();
+        let cfg = IdentifierDesign::new(conditioning, model).build().unwrap();
         let mut st = cfg.new_state();
         for (y, u, r) in samples {
             let s = Sample { y: PositionI48F16::from_raw(y), u: SignalI16F16::from_raw(u), r: PositionI48F16::from_raw(r) };

@@ -35,12 +35,9 @@ fn run(rls: RlsDesign) -> Outcome {
     let scaling = Scaling::new(params.plant.quantum_m, params.plant.u_max_v).expect("scaling");
     let mut model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
     model.rls = rls;
-    let cfg = IdentifierDesign {
-        conditioning: Conditioning::CentredOnReference,
-        model,
-    }
-    .build()
-    .expect("design");
+    let cfg = IdentifierDesign::new(Conditioning::CentredOnReference, model)
+        .build()
+        .expect("design");
     let mut st = cfg.new_state();
     // The seek and its settling (~0.15 s) identify θ; the dwell starts after 0.3 s.
     let dwell_start = (0.3 / params.plant.ts_s) as usize;

@@ -6,8 +6,10 @@
 //! (a smoke test that the scenarios are meaningful, not a measurement).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+use sledid::decimate::{DecimatorConfig, DecimatorState};
 use sledid::fixed::{ParamI12F20, SignalI16F16};
 use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
+use sledid::neuron::{HiddenLayer, HiddenLayerDesign, NeuronDesign};
 use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
 
 /// Length of the input tables (calls cycle through them).
@@ -97,9 +99,72 @@ impl<const N: usize> ArxBench<N> {
     }
 }
 
+/// The 2-neuron hidden layer of eq. 5 evaluated at one input, with g, ∂g/∂x and the gradient with
+/// respect to all six parameters (what a prediction-error update needs per sample).
+pub struct NeuronBench {
+    layer: HiddenLayer<2>,
+}
+
+impl NeuronBench {
+    /// Builds the scenario: fitted-looking weights (w ≠ 0, so every derivative is non-trivial).
+    pub fn new() -> Option<Self> {
+        let layer = HiddenLayerDesign {
+            neurons: [
+                NeuronDesign {
+                    w: 1.5,
+                    a: 1.2,
+                    c: -0.4,
+                },
+                NeuronDesign {
+                    w: -0.8,
+                    a: 2.5,
+                    c: 0.5,
+                },
+            ],
+        }
+        .build()
+        .ok()?;
+        Some(Self { layer })
+    }
+
+    /// Call `i`: one evaluation at a table input (±0.5 of full scale); every output folded in.
+    pub fn call(&mut self, i: u32) -> u32 {
+        let o = self.layer.eval(at(&U_TABLE, i));
+        let mut acc = o.g.raw() ^ o.dg_dx.raw() ^ i32::from(o.status.bits());
+        for g in &o.grad {
+            acc = acc.wrapping_add(g.dw.raw() ^ g.da.raw() ^ g.dc.raw());
+        }
+        acc as u32
+    }
+}
+
+/// One input sample through the half-band decimator (an output every second call).
+pub struct DecimateBench {
+    config: DecimatorConfig,
+    state: DecimatorState,
+}
+
+impl DecimateBench {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let config = DecimatorConfig::HALF_BAND_23;
+        Some(Self {
+            config,
+            state: config.new_state(),
+        })
+    }
+
+    /// Call `i`: push one table sample (a few quanta).
+    pub fn call(&mut self, i: u32) -> u32 {
+        self.config
+            .push(&mut self.state, at(&Y_TABLE, i))
+            .map_or(0, |o| o.y.raw() as u32)
+    }
+}
+
 #[cfg(target_os = "none")]
 mod target {
-    use super::{ArxBench, RlsBench};
+    use super::{ArxBench, DecimateBench, NeuronBench, RlsBench};
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
@@ -107,6 +172,8 @@ mod target {
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
     static ARX4: Mutex<RefCell<Option<ArxBench<4>>>> = Mutex::new(RefCell::new(None));
+    static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
+    static DECIMATE: Mutex<RefCell<Option<DecimateBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -115,6 +182,8 @@ mod target {
             RLS2.borrow(cs).replace(RlsBench::new());
             RLS4.borrow(cs).replace(RlsBench::new());
             ARX4.borrow(cs).replace(ArxBench::new());
+            NEURON.borrow(cs).replace(NeuronBench::new());
+            DECIMATE.borrow(cs).replace(DecimateBench::new());
         });
     }
 
@@ -161,13 +230,39 @@ mod target {
         })
     }
 
+    /// The 2-neuron layer of eq. 5: g, ∂g/∂x and the six parameter derivatives.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_neuron_eval(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            NEURON
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i))
+        })
+    }
+
+    /// One input sample through the half-band decimator (mean over both phases).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_decimate_push(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            DECIMATE
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i))
+        })
+    }
+
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 4] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 6] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
         bench_arx4_step,
+        bench_neuron_eval,
+        bench_decimate_push,
     ];
 
     #[entry]
@@ -207,6 +302,14 @@ fn main() {
     println!("rls2 θ = {:?}", r2.state.theta());
     println!("rls4 θ = {:?}", r4.state.theta());
     println!("arx4 θ = {:?}", a4.state.theta());
+    if let (Some(mut nb), Some(mut db)) = (NeuronBench::new(), DecimateBench::new()) {
+        let (mut n_acc, mut d_acc) = (0u32, 0u32);
+        for i in 0..5000 {
+            n_acc = n_acc.wrapping_add(nb.call(i));
+            d_acc = d_acc.wrapping_add(db.call(i));
+        }
+        println!("neuron checksum = {n_acc:#x}, decimate checksum = {d_acc:#x}");
+    }
     println!(
         "Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md)."
     );

@@ -46,11 +46,13 @@ fn test() -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 4] = [
+const BENCH_FNS: [&str; 6] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
     "bench_arx4_step",
+    "bench_neuron_eval",
+    "bench_decimate_push",
 ];
 
 fn cost() -> bool {

@@ -9,5 +9,7 @@
 //!   simulation RMS reported by the study).
 
 pub mod batch;
+pub mod decimate;
 pub mod linear;
+pub mod neuron;
 pub mod rls;

@@ -64,10 +64,7 @@ pub fn design() -> IdentifierDesign<N> {
         anti_windup: AntiWindup::TraceLimit { max: 100.0 },
         ..RlsDesign::default()
     };
-    IdentifierDesign {
-        conditioning: Conditioning::Differenced,
-        model,
-    }
+    IdentifierDesign::new(Conditioning::Differenced, model)
 }
 
 /// Decodes one record (the first [`RECORD_BYTES`] bytes of `bytes`); `None` if it is shorter.
