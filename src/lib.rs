@@ -19,6 +19,7 @@
 
 pub mod boundary;
 pub mod conditioning;
+pub mod control;
 pub mod decimate;
 pub mod dyadic;
 pub mod error;

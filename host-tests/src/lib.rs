@@ -7,4 +7,6 @@ pub mod plants;
 pub mod recording;
 pub mod reference;
 pub mod replay;
+pub mod soak;
+pub mod study;
 pub mod twin;

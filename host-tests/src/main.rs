@@ -29,6 +29,16 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Soak: N samples of twin closed-loop data (random seeks ending in limit cycles) through the
+    /// per-sample step; fails if P or θ leave their bounds. Prints a JSON report.
+    Soak {
+        /// Samples.
+        #[arg(long, default_value_t = 10_000_000)]
+        samples: u64,
+        /// Seeks per twin chunk.
+        #[arg(long, default_value_t = 200)]
+        seeks_per_chunk: u32,
+    },
     /// Simulate the sled in closed loop with the paper's baseline controller and write a recording
     /// (t_s, r_m, u_v, y_m) plus a JSON sidecar with every parameter and the seed.
     Twin {
@@ -48,6 +58,10 @@ enum Command {
     /// Replay recordings through the per-sample step (the firmware's function) and its float64
     /// reference: DIR/<name>/trace.csv and summary.json. Several files run in parallel.
     Replay(Box<ReplayArgs>),
+    /// The paper's linear identification procedure (ARX1, ARX2, OE1, OE2 at Ts and after ÷2) on a
+    /// recording, or on a twin recording with the paper's protocol (`--twin`): DIR/study.json and
+    /// PNG figures like the paper's.
+    Study(Box<StudyArgs>),
     /// Generate a twin recording, replay it through the fixed-point identifier and its float64
     /// reference, write DIR/trace.csv and DIR/summary.json.
     Demo {
@@ -368,6 +382,85 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     Ok(())
 }
 
+#[derive(clap::Args)]
+struct StudyArgs {
+    /// Recording with the identification segment (not with `--twin`).
+    #[arg(required_unless_present = "twin", conflicts_with = "twin")]
+    file: Option<PathBuf>,
+    /// Generate a twin recording (default parameters, `--seed`) into DIR and use the paper's
+    /// protocol: identification on the settling of seek 0, validation on seek 1.
+    #[arg(long)]
+    twin: bool,
+    /// Twin seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Samples per window with `--twin`.
+    #[arg(long, default_value_t = 100)]
+    twin_window: usize,
+    /// Column mapping by name or 0-based index, e.g. `u=u_v,y=y_m,r=r_m,t=t_s`.
+    #[arg(long, required_unless_present = "twin", conflicts_with = "twin")]
+    columns: Option<String>,
+    /// Identification segment A:B (sample indices, B exclusive).
+    #[arg(long, required_unless_present = "twin", conflicts_with = "twin")]
+    ident: Option<sledid_host::study::Segment>,
+    /// Validation segment C:D (sample indices, D exclusive).
+    #[arg(long, required_unless_present = "twin", conflicts_with = "twin")]
+    valid: Option<sledid_host::study::Segment>,
+    /// Recording with the validation segment (default: FILE).
+    #[arg(long, conflicts_with = "twin")]
+    valid_file: Option<PathBuf>,
+    /// Sampling period (s) when there is no time column (or to check the one there is).
+    #[arg(long)]
+    ts: Option<f64>,
+    /// Sensor quantum in the y column's unit (y and r are divided by it), e.g. 1.6e-6.
+    #[arg(long, default_value_t = 1.0)]
+    y_unit: f64,
+    /// Factor from the u column to volts.
+    #[arg(long, default_value_t = 1.0)]
+    u_scale: f64,
+    /// Centring of each segment: auto (final-reference if r is mapped, else last-output),
+    /// final-reference, mean-reference, last-output, none.
+    #[arg(long, default_value = "auto")]
+    centre: sledid_host::study::Centring,
+    /// Output directory: study.json, fig*.png (and twin.csv with `--twin`).
+    #[arg(long, default_value = "out/study")]
+    out: PathBuf,
+}
+
+fn study_cmd(a: &StudyArgs) -> Result<(), String> {
+    use sledid_host::study::{self, StudyInput, StudyOptions};
+    let options = StudyOptions {
+        centring: a.centre,
+        ..StudyOptions::default()
+    };
+    let study = match (&a.file, &a.columns, a.ident, a.valid) {
+        _ if a.twin => study::protocol::run_twin(a.seed, a.twin_window, &a.out, options),
+        (Some(file), Some(columns), Some(ident), Some(valid)) => study::run_files(&StudyInput {
+            ident_file: file.clone(),
+            valid_file: a.valid_file.clone(),
+            columns: columns.clone(),
+            ts_s: a.ts,
+            y_unit: a.y_unit,
+            u_scale: a.u_scale,
+            ident,
+            valid,
+            options,
+        }),
+        _ => return Err("study: FILE, --columns, --ident and --valid (or --twin)".to_owned()),
+    };
+    let mut study = study.map_err(|e| e.to_string())?;
+    let files = study::write_outputs(&mut study, &a.out).map_err(|e| e.to_string())?;
+    println!("{}\n", study.header());
+    print!("{}", study.table());
+    for note in &study.notes {
+        println!("note: {note}");
+    }
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command.unwrap_or(Command::Demo {
@@ -376,6 +469,13 @@ fn main() -> ExitCode {
     }) {
         Command::Demo { seed, out } => demo(seed, &out),
         Command::Replay(args) => replay_cmd(&args),
+        Command::Study(args) => study_cmd(&args),
+        Command::Soak {
+            samples,
+            seeks_per_chunk,
+        } => sledid_host::soak::soak(samples, seeks_per_chunk, true)
+            .and_then(|r| serde_json::to_string_pretty(&r).map_err(|e| e.to_string()))
+            .map(|j| println!("{j}")),
         Command::Twin {
             seed,
             plant,

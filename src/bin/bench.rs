@@ -6,6 +6,8 @@
 //! (a smoke test that the scenarios are meaningful, not a measurement).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+use sledid::boundary::PositionI48F16;
+use sledid::control::{PidConfig, PidDesign, PidState};
 use sledid::decimate::{DecimatorConfig, DecimatorState};
 use sledid::fixed::{ParamI12F20, SignalI16F16};
 use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
@@ -162,9 +164,46 @@ impl DecimateBench {
     }
 }
 
+/// One position-controller step: the twin's baseline PID (P, integrator at ±70 mV with conditional
+/// integration, derivative low-passed at 1 kHz) plus a 300 Hz reference prefilter — every option on.
+pub struct PidBench {
+    config: PidConfig,
+    state: PidState,
+}
+
+impl PidBench {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let config = PidDesign {
+            kp_v_per_quantum: 0.015,
+            ki_v_per_quantum_s: 200.0,
+            kd_v_s_per_quantum: 1.0e-5,
+            integrator_limit_v: 0.07,
+            derivative_lowpass_hz: 1000.0,
+            reference_lowpass_hz: 300.0,
+            ..PidDesign::new(0.455e-3, 5.0)
+        }
+        .build()
+        .ok()?;
+        Some(Self {
+            config,
+            state: PidState::new(),
+        })
+    }
+
+    /// Call `i`: a reference a few hundred quanta from zero, the measurement a table value (a few
+    /// quanta) around it.
+    pub fn call(&mut self, i: u32) -> u32 {
+        let r = PositionI48F16::from_counts(300);
+        let y = PositionI48F16::from_raw(r.raw() + i64::from(at(&Y_TABLE, i).raw()));
+        let o = self.config.step(&mut self.state, r, y);
+        (o.u.raw() as u32) ^ u32::from(o.flags.bits())
+    }
+}
+
 #[cfg(target_os = "none")]
 mod target {
-    use super::{ArxBench, DecimateBench, NeuronBench, RlsBench};
+    use super::{ArxBench, DecimateBench, NeuronBench, PidBench, RlsBench};
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
@@ -174,6 +213,7 @@ mod target {
     static ARX4: Mutex<RefCell<Option<ArxBench<4>>>> = Mutex::new(RefCell::new(None));
     static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
     static DECIMATE: Mutex<RefCell<Option<DecimateBench>>> = Mutex::new(RefCell::new(None));
+    static PID: Mutex<RefCell<Option<PidBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -184,6 +224,7 @@ mod target {
             ARX4.borrow(cs).replace(ArxBench::new());
             NEURON.borrow(cs).replace(NeuronBench::new());
             DECIMATE.borrow(cs).replace(DecimateBench::new());
+            PID.borrow(cs).replace(PidBench::new());
         });
     }
 
@@ -254,15 +295,27 @@ mod target {
         })
     }
 
+    /// One position-controller step (prefilter, P, I, low-passed D, saturation).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_pid_step(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            PID.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i))
+        })
+    }
+
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 6] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 7] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
         bench_arx4_step,
         bench_neuron_eval,
         bench_decimate_push,
+        bench_pid_step,
     ];
 
     #[entry]
@@ -309,6 +362,10 @@ fn main() {
             d_acc = d_acc.wrapping_add(db.call(i));
         }
         println!("neuron checksum = {n_acc:#x}, decimate checksum = {d_acc:#x}");
+    }
+    if let Some(mut pb) = PidBench::new() {
+        let p_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(pb.call(i)));
+        println!("pid checksum = {p_acc:#x}");
     }
     println!(
         "Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md)."

@@ -3,6 +3,7 @@
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, and every host test (overflow checks on).
 //! - `fmt`: format the workspace.
+//! - `fuzz [RUNS]`: every cargo-fuzz target for RUNS executions (default 10⁷) on its committed corpus.
 //! - `cost`: build the bench image for Cortex-M4F and M0+ and count instructions / estimate cycles
 //!   per call of every `bench_*` entry point with `../shared/tools/count_insns.py` (needs Python with
 //!   `unicorn==2.1.4 capstone==5.0.9 pyelftools==0.33`), printing the table for BENCHMARKS.md.
@@ -42,17 +43,59 @@ fn test() -> bool {
         steps.push(vec!["build", "--lib", "--release", "--target", t]);
     }
     steps.push(vec!["test", "--workspace"]);
-    steps.iter().all(|s| cargo(s))
+    steps.iter().all(|s| cargo(s)) && fuzz(20_000)
+}
+
+/// The cargo-fuzz targets (fuzz/fuzz_targets).
+const FUZZ_TARGETS: [&str; 2] = ["step", "recording"];
+
+/// Runs every fuzz target for `runs` executions on nightly (installing cargo-fuzz if missing).
+fn fuzz(runs: u64) -> bool {
+    let have = Command::new("cargo")
+        .args(["fuzz", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have
+        && !cargo(&[
+            "install",
+            "--locked",
+            "--quiet",
+            "cargo-fuzz",
+            "--version",
+            "0.13.2",
+        ])
+    {
+        return false;
+    }
+    FUZZ_TARGETS.iter().all(|t| {
+        let corpus = format!("fuzz/corpus/{t}");
+        let runs = format!("-runs={runs}");
+        println!("\n==> cargo +nightly fuzz run {t} {corpus} -- {runs}");
+        Command::new("cargo")
+            .args([
+                "+nightly",
+                "fuzz",
+                "run",
+                t,
+                &corpus,
+                "--",
+                &runs,
+                "-max_len=4096",
+            ])
+            .status()
+            .is_ok_and(|s| s.success())
+    })
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 6] = [
+const BENCH_FNS: [&str; 7] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
     "bench_arx4_step",
     "bench_neuron_eval",
     "bench_decimate_push",
+    "bench_pid_step",
 ];
 
 fn cost() -> bool {
@@ -129,8 +172,14 @@ fn main() -> ExitCode {
         "test" => test(),
         "fmt" => cargo(&["fmt", "--all"]),
         "cost" => cost(),
+        "fuzz" => fuzz(
+            std::env::args()
+                .nth(2)
+                .and_then(|r| r.parse().ok())
+                .unwrap_or(10_000_000),
+        ),
         _ => {
-            eprintln!("usage: cargo xtask <test|fmt|cost>");
+            eprintln!("usage: cargo xtask <test|fmt|cost|fuzz [RUNS]>");
             false
         }
     };

@@ -9,6 +9,7 @@
 //!   simulation RMS reported by the study).
 
 pub mod batch;
+pub mod control;
 pub mod decimate;
 pub mod linear;
 pub mod neuron;

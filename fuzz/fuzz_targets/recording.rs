@@ -1,0 +1,39 @@
+//! The recording reader on arbitrary file contents: every outcome is a sample or a typed error, never
+//! a panic. The first byte picks the mapping and header mode; the rest is the file.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use sledid_host::recording::{HeaderMode, ReaderOptions, RecordingReader};
+use std::io::Write;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&mode, body)) = data.split_first() else { return };
+    let path = std::env::temp_dir().join(format!("sledid-fuzz-recording-{}.csv", std::process::id()));
+    let Ok(mut f) = std::fs::File::create(&path) else { return };
+    if f.write_all(body).is_err() {
+        return;
+    }
+    drop(f);
+    let mapping = match mode % 3 {
+        0 => "u=0,y=1",
+        1 => "u=0,y=1,t=2",
+        _ => "u=a,y=b,r=c",
+    };
+    let Ok(mapping) = mapping.parse() else { return };
+    let mut opts = ReaderOptions::new(mapping);
+    opts.header = match (mode / 3) % 3 {
+        0 => HeaderMode::Auto,
+        1 => HeaderMode::Present,
+        _ => HeaderMode::Absent,
+    };
+    if mode & 0x80 != 0 {
+        opts.ts_s = Some(1e-3);
+    }
+    if let Ok(reader) = RecordingReader::open(&path, &opts) {
+        for item in reader.take(100_000) {
+            if item.is_err() {
+                break;
+            }
+        }
+    }
+});

@@ -1,0 +1,90 @@
+//! The per-sample `step` with an arbitrary (valid) configuration and arbitrary raw samples: no panic,
+//! no overflow (overflow checks are on), P stays positive definite.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use sledid::boundary::{PositionI48F16, Sample};
+use sledid::conditioning::Conditioning;
+use sledid::fixed::SignalI16F16;
+use sledid::linear::{LinearDesign, Structure};
+use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::step::{IdentifierDesign, StuckSensorDesign, reject, step};
+
+/// Reads little-endian values from the fuzzer's bytes (zeros when exhausted).
+struct Bytes<'a>(&'a [u8]);
+
+impl Bytes<'_> {
+    fn take<const K: usize>(&mut self) -> [u8; K] {
+        let mut out = [0u8; K];
+        let n = K.min(self.0.len());
+        out[..n].copy_from_slice(&self.0[..n]);
+        self.0 = &self.0[n..];
+        out
+    }
+    fn u8(&mut self) -> u8 {
+        self.take::<1>()[0]
+    }
+    fn unit(&mut self) -> f64 {
+        f64::from(u16::from_le_bytes(self.take())) / 65_535.0
+    }
+}
+
+fn run<const N: usize>(b: &mut Bytes, na: usize, nb: usize) {
+    let structure = match b.u8() % 3 {
+        0 => Structure::Arx,
+        1 => Structure::OutputErrorPseudoLinear,
+        _ => Structure::OutputErrorPredictionError,
+    };
+    let conditioning = match b.u8() % 4 {
+        0 => Conditioning::None,
+        1 => Conditioning::CentredOnReference,
+        2 => Conditioning::Differenced,
+        _ => Conditioning::DifferencedOutput,
+    };
+    let dead_zone = b.unit() * 4.0;
+    let rls = RlsDesign {
+        lambda: 0.5 + 0.5 * b.unit(),
+        p0: 10f64.powf(-6.0 + 14.0 * b.unit()),
+        dead_zone,
+        excitation_threshold: if b.u8() % 2 == 0 { 0.0 } else { 10f64.powf(-9.0 + 12.0 * b.unit()) },
+        anti_windup: match b.u8() % 4 {
+            0 => AntiWindup::None,
+            1 => AntiWindup::TraceLimit { max: 10f64.powf(-3.0 + 9.0 * b.unit()) },
+            2 => AntiWindup::DiagonalLimit { max: 10f64.powf(-3.0 + 9.0 * b.unit()) },
+            _ => AntiWindup::ConstantTrace { trace: 10f64.powf(-3.0 + 9.0 * b.unit()) },
+        },
+        outlier_threshold: if b.u8() % 2 == 0 { 0.0 } else { dead_zone + 0.1 + 100.0 * b.unit() },
+        outlier_limit: u16::from(b.u8()),
+    };
+    let mut model = LinearDesign::<N>::new(structure, na, nb);
+    model.rls = rls;
+    let mut design = IdentifierDesign::new(conditioning, model);
+    if b.u8() % 2 == 1 {
+        design.stuck_sensor = Some(StuckSensorDesign { samples: 2 + u32::from(b.u8()), min_drive: 0.01 + b.unit() });
+    }
+    let Ok(cfg) = design.build() else { return };
+    let mut st = cfg.new_state();
+    while !b.0.is_empty() {
+        if b.u8() == 0xFF {
+            let _ = reject(&cfg, &mut st);
+            continue;
+        }
+        let s = Sample {
+            y: PositionI48F16::from_raw(i64::from_le_bytes(b.take())),
+            u: SignalI16F16::from_raw(i32::from_le_bytes(b.take())),
+            r: PositionI48F16::from_raw(i64::from_le_bytes(b.take())),
+        };
+        let out = step(&cfg, &mut st, &s);
+        assert_eq!(out.theta, *st.model().theta());
+        assert!(st.model().rls().d().iter().all(|d| !d.is_zero()), "P lost positive definiteness");
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut b = Bytes(data);
+    match b.u8() % 3 {
+        0 => run::<2>(&mut b, 1, 1),
+        1 => run::<3>(&mut b, 2, 1),
+        _ => run::<4>(&mut b, 2, 2),
+    }
+});

@@ -1,0 +1,203 @@
+//! The study's data: segments, centring, signals in the paper's units and the centred segments the
+//! models are fitted to (see the [module documentation](super) for the conventions).
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::recording::Recording;
+use crate::reference::decimate::{DecimatorF64, design_taps};
+use sledid::decimate::GROUP_DELAY_SAMPLES;
+
+/// Sample indices `start..end` (end exclusive); parsed from `A:B`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Segment {
+    /// First sample.
+    pub start: usize,
+    /// One past the last sample.
+    pub end: usize,
+}
+
+impl Segment {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.end.saturating_sub(self.start)
+    }
+
+    /// Whether it holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The decimated samples m whose centre input sample `2m + 1 − 11` lies in `start..end`.
+    pub fn decimated(&self) -> Segment {
+        let g = GROUP_DELAY_SAMPLES - 1;
+        Segment {
+            start: (self.start + g).div_ceil(2),
+            end: (self.end + g).div_ceil(2),
+        }
+    }
+}
+
+impl fmt::Display for Segment {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.start, self.end)
+    }
+}
+
+impl FromStr for Segment {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("segment `{s}`: expected A:B with sample indices A < B");
+        let (a, b) = s.split_once(':').ok_or_else(bad)?;
+        let start = a.trim().parse().map_err(|_| bad())?;
+        let end = b.trim().parse().map_err(|_| bad())?;
+        if start >= end {
+            return Err(bad());
+        }
+        Ok(Segment { start, end })
+    }
+}
+
+/// How a segment is centred; see the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Centring {
+    /// `FinalReference` when r is mapped, `LastOutput` otherwise.
+    Auto,
+    /// r at the segment's last sample.
+    FinalReference,
+    /// Mean of r over the segment.
+    MeanReference,
+    /// y at the segment's last sample.
+    LastOutput,
+    /// No shift.
+    None,
+}
+
+impl FromStr for Centring {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "auto" => Self::Auto,
+            "final-reference" => Self::FinalReference,
+            "mean-reference" => Self::MeanReference,
+            "last-output" => Self::LastOutput,
+            "none" => Self::None,
+            _ => {
+                return Err(format!(
+                    "centring `{s}`: expected auto, final-reference, mean-reference, last-output or none"
+                ));
+            }
+        })
+    }
+}
+
+/// A recording in the study's units: y in quanta, u in volts, r in quanta.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Signals {
+    /// Where it came from.
+    pub source: String,
+    /// Sampling period, s.
+    pub ts_s: f64,
+    /// Input, V.
+    pub u_v: Vec<f64>,
+    /// Output, quanta.
+    pub y_q: Vec<f64>,
+    /// Reference, quanta, if mapped.
+    pub r_q: Option<Vec<f64>>,
+}
+
+impl Signals {
+    /// From a recording read with unit scales: `y / y_unit`, `u · u_scale`, `r / y_unit`.
+    pub fn from_recording(rec: &Recording, y_unit: f64, u_scale: f64) -> Self {
+        let s = &rec.samples;
+        let r_q = s
+            .iter()
+            .map(|x| x.r.map(|r| r / y_unit))
+            .collect::<Option<Vec<f64>>>()
+            .filter(|r| !r.is_empty());
+        Self {
+            source: rec.meta.path.display().to_string(),
+            ts_s: rec.meta.ts_s,
+            u_v: s.iter().map(|x| x.u * u_scale).collect(),
+            y_q: s.iter().map(|x| x.y / y_unit).collect(),
+            r_q,
+        }
+    }
+
+    /// Half-band low-pass and every second sample, at `2·Ts`.
+    pub fn decimated_by_2(&self) -> Self {
+        let run = |x: &[f64]| DecimatorF64::run(design_taps(), x);
+        Self {
+            source: format!("{} (÷2)", self.source),
+            ts_s: 2.0 * self.ts_s,
+            u_v: run(&self.u_v),
+            y_q: run(&self.y_q),
+            r_q: self.r_q.as_deref().map(run),
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.y_q.len()
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.y_q.is_empty()
+    }
+
+    /// The centring value of `seg` (see [`Centring`]) and the rule that was applied.
+    pub fn centre(&self, seg: Segment, how: Centring) -> (f64, Centring) {
+        let last = seg.end - 1;
+        let how = match (how, &self.r_q) {
+            (Centring::Auto, Some(_)) => Centring::FinalReference,
+            (Centring::Auto | Centring::FinalReference | Centring::MeanReference, None) => {
+                Centring::LastOutput
+            }
+            (h, _) => h,
+        };
+        let value = match (how, &self.r_q) {
+            (Centring::FinalReference, Some(r)) => r[last],
+            (Centring::MeanReference, Some(r)) => {
+                r[seg.start..seg.end].iter().sum::<f64>() / seg.len() as f64
+            }
+            (Centring::None, _) => 0.0,
+            _ => self.y_q[last],
+        };
+        (value, how)
+    }
+
+    /// The segment `seg`, shifted by `centre_q`.
+    pub fn dataset(&self, seg: Segment, centre_q: f64) -> Dataset {
+        let r = seg.start..seg.end;
+        Dataset {
+            ts_s: self.ts_s,
+            segment: seg,
+            centre_q,
+            u: self.u_v[r.clone()].to_vec(),
+            y: self.y_q[r.clone()].iter().map(|y| y - centre_q).collect(),
+            r: self
+                .r_q
+                .as_ref()
+                .map(|x| x[r].iter().map(|v| v - centre_q).collect()),
+        }
+    }
+}
+
+/// One centred segment at one rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    /// Sampling period, s.
+    pub ts_s: f64,
+    /// Where it sits in its (possibly decimated) recording.
+    pub segment: Segment,
+    /// The value subtracted from y and r, quanta.
+    pub centre_q: f64,
+    /// Input, V.
+    pub u: Vec<f64>,
+    /// Centred output, quanta.
+    pub y: Vec<f64>,
+    /// Centred reference, quanta.
+    pub r: Option<Vec<f64>>,
+}

@@ -1,0 +1,147 @@
+//! The paper's protocol on a sled-twin recording: identification on the end of one step
+//! response, validation on the end of another (Section 4: "a second data set from a similar step
+//! response", about 100 samples each).
+//!
+//! For seek k the window starts at the first sample at which the measured output has reached the
+//! target (`|target − y| ≤ 1` quantum for the first time, [`SeekStats::first_within_one_s`]) and
+//! holds `window` samples. Identification uses seek 0, validation seek 1. The paper's window is
+//! the decaying oscillation before the ±1-quantum limit cycle; the twin's baseline loop rings
+//! down within a few samples of reaching the target ([`SeekWindow::settling_samples_in_window`]
+//! says how many), so most of a 100-sample window is limit cycle.
+//!
+//! [`SeekStats::first_within_one_s`]: crate::twin::SeekStats::first_within_one_s
+
+use serde::Serialize;
+use std::path::Path;
+
+use super::{Segment, Study, StudyError, StudyInput, StudyOptions, run_files};
+use crate::twin::{Twin, TwinParams};
+
+/// The paper's segment length, samples.
+pub const PAPER_WINDOW: usize = 100;
+
+/// The column mapping of a twin CSV.
+pub const TWIN_COLUMNS: &str = "u=u_v,y=y_m,r=r_m,t=t_s";
+
+/// The window taken from one seek.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SeekWindow {
+    /// Seek index in the schedule.
+    pub seek: usize,
+    /// Its target, counts.
+    pub target_counts: i64,
+    /// Its step length, counts.
+    pub step_counts: i64,
+    /// The samples taken.
+    pub segment: Segment,
+    /// Samples of the window before `|e| ≤ 1` holds for the rest of the seek: the decaying
+    /// oscillation; the rest of the window is the ±1-quantum limit cycle.
+    pub settling_samples_in_window: usize,
+    /// Overshoot beyond the target, counts.
+    pub overshoot_counts: i64,
+}
+
+/// How a twin study was set up.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TwinProtocol {
+    /// Twin seed (default parameters).
+    pub seed: u64,
+    /// The recording written.
+    pub recording: String,
+    /// Samples per window.
+    pub window: usize,
+    /// Identification: seek 0.
+    pub ident: SeekWindow,
+    /// Validation: seek 1.
+    pub valid: SeekWindow,
+}
+
+/// The `window`-sample window of seek `k` (see the module documentation).
+pub fn seek_window(twin: &Twin, k: usize, window: usize) -> Result<SeekWindow, StudyError> {
+    let ts_s = twin.params().plant.ts_s;
+    let stats = twin.seek_stats();
+    let missing = |what: &str| StudyError::Usage(format!("twin seek {k}: {what}"));
+    let (Some(seek), Some(st)) = (twin.seeks().get(k), stats.get(k)) else {
+        return Err(missing("not in the schedule (need at least two seeks)"));
+    };
+    let to_samples = |t: f64| (t / ts_s).round() as usize;
+    let first = st
+        .first_within_one_s
+        .map(to_samples)
+        .ok_or_else(|| missing("never reaches its target"))?;
+    let settled = st.settling_time_s.map_or(usize::MAX, to_samples);
+    let start = seek.start_index + first;
+    let segment = Segment {
+        start,
+        end: start + window,
+    };
+    if seek.end_index.is_none_or(|end| segment.end > end) {
+        return Err(missing(
+            "the window runs past the seek's dwell (use a shorter --twin-window)",
+        ));
+    }
+    Ok(SeekWindow {
+        seek: k,
+        target_counts: st.target_counts,
+        step_counts: st.step_counts,
+        segment,
+        settling_samples_in_window: settled.saturating_sub(first).min(window),
+        overshoot_counts: st.overshoot_counts,
+    })
+}
+
+/// Generates the twin (default parameters, `seed`), writes `dir/twin.csv` (+ sidecar) and returns
+/// the study of it with the paper's protocol.
+pub fn twin_input(
+    seed: u64,
+    window: usize,
+    dir: &Path,
+    options: StudyOptions,
+) -> Result<(StudyInput, TwinProtocol), StudyError> {
+    let twin = Twin::run_baseline(TwinParams::default(), seed).map_err(StudyError::Twin)?;
+    std::fs::create_dir_all(dir).map_err(|source| StudyError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let csv = dir.join("twin.csv");
+    twin.write_csv(&csv).map_err(StudyError::Twin)?;
+    let ident = seek_window(&twin, 0, window)?;
+    let valid = seek_window(&twin, 1, window)?;
+    let input = StudyInput {
+        ident_file: csv.clone(),
+        valid_file: None,
+        columns: TWIN_COLUMNS.to_owned(),
+        ts_s: None,
+        y_unit: twin.params().plant.quantum_m,
+        u_scale: 1.0,
+        ident: ident.segment,
+        valid: valid.segment,
+        options,
+    };
+    let protocol = TwinProtocol {
+        seed,
+        recording: csv.display().to_string(),
+        window,
+        ident,
+        valid,
+    };
+    Ok((input, protocol))
+}
+
+/// [`twin_input`] and the study of it.
+pub fn run_twin(
+    seed: u64,
+    window: usize,
+    dir: &Path,
+    options: StudyOptions,
+) -> Result<Study, StudyError> {
+    let (input, protocol) = twin_input(seed, window, dir, options)?;
+    let mut study = run_files(&input)?;
+    let n = protocol.ident.settling_samples_in_window;
+    study.notes.push(format!(
+        "twin: the identification window holds {n} samples of decaying oscillation before the \
+         ±1-quantum limit cycle (the paper's window is mostly decaying oscillation)"
+    ));
+    study.twin = Some(protocol);
+    Ok(study)
+}
