@@ -379,6 +379,24 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
         out.display(),
         out.display()
     );
+
+    // The paper's study on the same twin: ~100 settling samples of one seek to identify, of the next
+    // to validate, every linear model at Ts and after ÷2, with the paper's figures beside them.
+    let study_dir = out.join("study");
+    let mut study = sledid_host::study::protocol::run_twin(
+        seed,
+        sledid_host::study::protocol::PAPER_WINDOW,
+        &study_dir,
+        sledid_host::study::StudyOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let files =
+        sledid_host::study::write_outputs(&mut study, &study_dir).map_err(|e| e.to_string())?;
+    println!();
+    println!("{}", study.header());
+    println!("{}", study.table());
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    println!("plots: {}", names.join(", "));
     Ok(())
 }
 
