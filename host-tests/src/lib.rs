@@ -1,6 +1,7 @@
 //! Host harness for `sledid`: recordings, replay, float64 references, the sled twin, the paper's study.
 #![forbid(unsafe_code)]
 
+pub mod closed_loop;
 pub mod compare;
 pub mod faults;
 pub mod plants;

@@ -294,6 +294,11 @@ impl Twin {
         self.seed
     }
 
+    /// The plant, mutable: plant changes (mass, friction) and actuator faults mid-run.
+    pub fn plant_mut(&mut self) -> &mut SledPlant {
+        &mut self.plant
+    }
+
     /// The plant (true position and velocity now).
     pub fn plant(&self) -> &SledPlant {
         &self.plant

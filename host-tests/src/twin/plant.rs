@@ -55,6 +55,33 @@ const MAX_PHASES_PER_HOLD: usize = 4;
 const SERIES_THRESHOLD: f64 = 1e-4;
 
 impl SledPlant {
+    /// Changes the moving mass (a plant change for fault tests), kg; ignored unless finite and > 0.
+    pub fn set_mass_kg(&mut self, mass_kg: f64) {
+        if mass_kg.is_finite() && mass_kg > 0.0 {
+            self.mass_kg = mass_kg;
+        }
+    }
+
+    /// Scales Coulomb and static friction by `factor` (a plant change); ignored unless finite, ≥ 0.
+    pub fn scale_friction(&mut self, factor: f64) {
+        if factor.is_finite() && factor >= 0.0 {
+            self.coulomb_n *= factor;
+            self.static_n *= factor;
+        }
+    }
+
+    /// Changes the amplifier saturation, V (an actuator fault); ignored unless finite and > 0.
+    pub fn set_u_max_v(&mut self, u_max_v: f64) {
+        if u_max_v.is_finite() && u_max_v > 0.0 {
+            self.u_max_v = u_max_v;
+        }
+    }
+
+    /// The moving mass, kg.
+    pub fn mass_kg(&self) -> f64 {
+        self.mass_kg
+    }
+
     /// A sled at rest at position 0, with the constants of `params` (assumed validated).
     pub fn new(params: &PlantParams) -> Self {
         Self {
