@@ -685,5 +685,75 @@ mod tests {
             Err(ConfigError::CovarianceLimit(0.0))
         );
         assert!(RlsDesign { lambda: 1.0, ..d }.build().is_ok());
+        assert_eq!(
+            RlsDesign {
+                outlier_threshold: -1.0,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::OutlierThreshold(-1.0))
+        );
+        assert!(matches!(
+            RlsDesign {
+                outlier_threshold: f64::NAN,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::OutlierThreshold(_))
+        ));
+        // The gate must sit above the dead zone.
+        assert_eq!(
+            RlsDesign {
+                dead_zone: 2.0,
+                outlier_threshold: 1.0,
+                ..d
+            }
+            .build(),
+            Err(ConfigError::OutlierThreshold(1.0))
+        );
+        assert!(
+            RlsDesign {
+                dead_zone: 1.0,
+                outlier_threshold: 5.0,
+                ..d
+            }
+            .build()
+            .is_ok()
+        );
+    }
+
+    #[test]
+    fn outlier_gate_skips_then_reopens_after_the_limit() {
+        let cfg = RlsDesign {
+            outlier_threshold: 2.0,
+            outlier_limit: 3,
+            ..RlsDesign::default()
+        }
+        .build()
+        .unwrap();
+        let mut st = RlsState::<2>::new(&cfg, [ParamI12F20::ZERO; 2]);
+        let before = st.clone();
+        for _ in 0..3 {
+            assert_eq!(
+                cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(10.0)),
+                Status::OUTLIER
+            );
+        }
+        assert_eq!(st.theta(), before.theta());
+        // The fourth in a row is taken as a plant change: updated, and still flagged.
+        let s = cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(10.0));
+        assert!(
+            s.contains(Status::UPDATED) && s.contains(Status::OUTLIER),
+            "{s:?}"
+        );
+        // A normal sample resets the count.
+        assert!(
+            cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(0.5))
+                .contains(Status::UPDATED)
+        );
+        assert_eq!(
+            cfg.update(&mut st, &[sig(1.0), sig(1.0)], sig(10.0)),
+            Status::OUTLIER
+        );
     }
 }

@@ -103,6 +103,8 @@ pub struct IdentifierState<const N: usize> {
     /// Adaptation enabled by the user (the stuck-sensor hold comes on top).
     enabled: bool,
     last_y: PositionI48F16,
+    /// `last_y` holds a real sample (the first sample only primes the stuck check).
+    has_last_y: bool,
     unchanged: u32,
 }
 
@@ -132,6 +134,7 @@ impl<const N: usize> IdentifierConfig<N> {
             model: self.model.new_state(),
             enabled: true,
             last_y: PositionI48F16::default(),
+            has_last_y: false,
             unchanged: 0,
         }
     }
@@ -169,14 +172,15 @@ pub fn step<const N: usize>(
     let mut sat = false;
     let stuck = config.stuck.is_some_and(|c| {
         let driven = sample.u.raw().unsigned_abs() >= c.min_drive_i16f16;
-        if sample.y == state.last_y && driven {
-            state.unchanged = state.unchanged.saturating_add(1);
-        } else if sample.y != state.last_y {
+        if !state.has_last_y || sample.y != state.last_y {
             state.unchanged = 0;
+        } else if driven {
+            state.unchanged = state.unchanged.saturating_add(1);
         }
         state.unchanged >= c.samples
     });
     state.last_y = sample.y;
+    state.has_last_y = true;
     state.model.set_enabled(state.enabled && !stuck);
     let Some((y, u)) = config
         .conditioning
@@ -219,5 +223,92 @@ pub fn reject<const N: usize>(
         eps: SignalI16F16::ZERO,
         theta: *state.model.theta(),
         status: Status::INPUT_REJECTED,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linear::Structure;
+
+    fn design() -> IdentifierDesign<2> {
+        IdentifierDesign::new(
+            Conditioning::DifferencedOutput,
+            LinearDesign::<2>::new(Structure::Arx, 1, 1),
+        )
+    }
+
+    fn sample(y: i64, u: f64) -> Sample {
+        Sample {
+            y: PositionI48F16::from_counts(y),
+            u: SignalI16F16::from_f64(u).unwrap(),
+            r: PositionI48F16::default(),
+        }
+    }
+
+    #[test]
+    fn stuck_sensor_design_is_validated() {
+        let mut d = design();
+        d.stuck_sensor = Some(StuckSensorDesign {
+            samples: 1,
+            min_drive: 0.1,
+        });
+        assert_eq!(d.build(), Err(ConfigError::StuckSensor(0.1)));
+        d.stuck_sensor = Some(StuckSensorDesign {
+            samples: 4,
+            min_drive: 0.0,
+        });
+        assert_eq!(d.build(), Err(ConfigError::StuckSensor(0.0)));
+        d.stuck_sensor = Some(StuckSensorDesign {
+            samples: 4,
+            min_drive: f64::NAN,
+        });
+        assert!(matches!(d.build(), Err(ConfigError::StuckSensor(_))));
+        d.stuck_sensor = Some(StuckSensorDesign {
+            samples: 4,
+            min_drive: 0.1,
+        });
+        assert!(d.build().is_ok());
+    }
+
+    #[test]
+    fn stuck_sensor_holds_until_y_moves_and_reject_reprimes() {
+        let mut d = design();
+        d.stuck_sensor = Some(StuckSensorDesign {
+            samples: 2,
+            min_drive: 0.1,
+        });
+        let cfg = d.build().unwrap();
+        let mut st = cfg.new_state();
+        assert!(
+            step(&cfg, &mut st, &sample(0, 0.5))
+                .status
+                .contains(Status::WARMUP)
+        );
+        assert!(
+            !step(&cfg, &mut st, &sample(0, 0.5))
+                .status
+                .contains(Status::SENSOR_STUCK)
+        );
+        let held = step(&cfg, &mut st, &sample(0, 0.5));
+        assert!(held.status.contains(Status::SENSOR_STUCK) && held.status.contains(Status::HELD));
+        // Undriven, an unchanged y is no evidence: the count does not grow but the hold stays.
+        let moved = step(&cfg, &mut st, &sample(3, 0.5));
+        assert!(!moved.status.contains(Status::SENSOR_STUCK));
+        assert!(!moved.status.contains(Status::HELD));
+        let r = reject(&cfg, &mut st);
+        assert_eq!(r.status, Status::INPUT_REJECTED);
+        assert!(
+            step(&cfg, &mut st, &sample(5, 0.5))
+                .status
+                .contains(Status::WARMUP)
+        );
+        // The user's hold survives the stuck check.
+        st.set_enabled(false);
+        assert!(
+            step(&cfg, &mut st, &sample(9, 0.5))
+                .status
+                .contains(Status::HELD)
+        );
     }
 }

@@ -1,8 +1,9 @@
-//! Soak: very long runs of the per-sample step on poorly excited closed-loop data from the twin
-//! (random seeks, each ending in a ±1-quantum limit cycle), checking that P and θ stay bounded and
-//! counting every status flag. Streaming: twin chunks (fresh seeds) are generated on one thread while
-//! the identifier consumes them on another; a chunk seam is passed as a rejected sample so no
-//! difference spans it.
+//! Soak: very long runs of the full per-sample path — the library's fixed-point controller closing
+//! the loop around the sled twin, and the identifier's step on the same samples — on poorly excited
+//! data (random seeks, each ending in a ±1-quantum limit cycle), checking that P, θ and the command
+//! stay bounded and counting every status flag. Streaming: twin chunks (fresh seeds, the controller
+//! in the loop) are generated on one thread while the identifier consumes them on another; a chunk
+//! seam is passed as a rejected sample so no difference spans it.
 
 use sledid::conditioning::Conditioning;
 use sledid::linear::{LinearDesign, Structure};
@@ -12,6 +13,7 @@ use sledid::{Sample, Scaling, Status};
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
+use crate::reference::control::{FixedPid, baseline_design};
 use crate::twin::{Twin, TwinParams};
 
 /// What a soak measured.
@@ -25,6 +27,8 @@ pub struct SoakReport {
     pub max_trace: f64,
     /// Largest |θᵢ| seen.
     pub max_abs_theta: f64,
+    /// Largest |drive| the fixed-point controller applied (its command after the amplifier), V.
+    pub max_abs_command_v: f64,
     /// Final θ.
     pub theta: Vec<f64>,
     /// Count of every status flag.
@@ -79,12 +83,13 @@ pub fn soak(samples: u64, seeks_per_chunk: u32, progress: bool) -> Result<SoakRe
     });
     let mut st = cfg.new_state();
     let mut counts = [0u64; Status::NAMES.len()];
-    let (mut n, mut max_trace, mut max_abs_theta) = (0u64, 0f64, 0f64);
+    let (mut n, mut max_trace, mut max_abs_theta, mut max_u) = (0u64, 0f64, 0f64, 0f64);
     let start = Instant::now();
     'outer: for chunk in rx.iter() {
         let _ = reject(&cfg, &mut st); // the seam between two twin runs
         for s in &chunk {
             let o = step(&cfg, &mut st, s);
+            max_u = max_u.max(s.u.to_f64().abs() * params.plant.u_max_v);
             for (c, (flag, _)) in counts.iter_mut().zip(Status::NAMES.iter()) {
                 *c += u64::from(o.status.contains(*flag));
             }
@@ -115,6 +120,7 @@ pub fn soak(samples: u64, seeks_per_chunk: u32, progress: bool) -> Result<SoakRe
         wall_s: start.elapsed().as_secs_f64(),
         max_trace,
         max_abs_theta,
+        max_abs_command_v: max_u,
         theta: st.model().theta().iter().map(|p| p.to_f64()).collect(),
         flags: Status::NAMES
             .iter()
