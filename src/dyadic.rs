@@ -129,11 +129,12 @@ impl Dyadic {
         }
         // Both mantissas in [2^31, 2^32): the product is in [2^62, 2^64), one bit to normalise.
         let p = crate::wide::mul_u32_wide(self.mant, rhs.mant);
-        let e = self.exp.saturating_add(rhs.exp);
+        // Exponents are clamped to ±2^14 by every constructor: the sum cannot overflow.
+        let e = self.exp + rhs.exp;
         if p >> 63 != 0 {
-            Self::clamped((p >> 32) as u32, e.saturating_add(32))
+            Self::clamped((p >> 32) as u32, e + 32)
         } else {
-            Self::clamped((p >> 31) as u32, e.saturating_add(31))
+            Self::clamped((p >> 31) as u32, e + 31)
         }
     }
 
@@ -153,14 +154,20 @@ impl Dyadic {
             (rhs, self)
         };
         let d = hi.exp.abs_diff(lo.exp);
-        // Each term below 2^63, so the sum fits in 64 bits.
+        // Each term below 2^63, so the sum fits in 64 bits; hi_w ≥ 2^62, so the sum is in
+        // [2^62, 2^64): normalising it is a one-bit decision, no leading-zero count.
         let hi_w = (hi.mant as u64) << 31;
         let lo_w = if d >= 64 {
             0
         } else {
             ((lo.mant as u64) << 31) >> d
         };
-        Self::from_u64(hi_w + lo_w, hi.exp - 31)
+        let sum = hi_w + lo_w;
+        if sum >> 63 != 0 {
+            Self::clamped((sum >> 32) as u32, hi.exp + 1)
+        } else {
+            Self::clamped((sum >> 31) as u32, hi.exp)
+        }
     }
 
     /// `self − rhs` if `self ≥ rhs`, else zero (truncated to 32 significant bits).
