@@ -89,6 +89,22 @@ pub enum ConfigError {
     SamplePeriod(f64),
     /// Full-scale drive not positive or not finite.
     FullScale(f64),
+    /// Controller output limit (V) not finite, not > 0, or not below 32,768 full scales.
+    OutputLimit(f64),
+    /// Proportional gain (V per quantum) not finite or |Kp/u_fs| ≥ 2¹⁵ per quantum.
+    Kp(f64),
+    /// Integral gain (V per quantum·s) not finite or |Ki·Ts/u_fs| ≥ 2¹⁵ per quantum.
+    Ki(f64),
+    /// Derivative gain (V·s per quantum) not finite or |Kd/(n·Ts·u_fs)| ≥ 2¹⁵ per quantum.
+    Kd(f64),
+    /// Integrator limit (V) not finite, negative, or not below 32,768 full scales.
+    IntegratorLimit(f64),
+    /// Derivative difference length outside 1..=4 samples.
+    DerivativeSamples(u8),
+    /// Derivative low-pass (Hz) not 0 (off) or in (0, 1/(2·Ts)).
+    DerivativeLowPass(f64),
+    /// Reference low-pass (Hz) not 0 (off) or in (0, 1/(2·Ts)).
+    ReferenceLowPass(f64),
 }
 
 impl fmt::Display for ConfigError {
@@ -134,6 +150,35 @@ impl fmt::Display for ConfigError {
             Self::FullScale(v) => write!(
                 f,
                 "u_max = {v}: the full-scale drive must be finite and > 0"
+            ),
+            Self::OutputLimit(v) => write!(
+                f,
+                "u_limit_v = {v}: must be finite, > 0 and below 32768 full scales"
+            ),
+            Self::Kp(v) => write!(
+                f,
+                "kp_v_per_quantum = {v}: must be finite with |kp/u_fs| < 32768"
+            ),
+            Self::Ki(v) => write!(
+                f,
+                "ki_v_per_quantum_s = {v}: must be finite with |ki·ts/u_fs| < 32768"
+            ),
+            Self::Kd(v) => write!(
+                f,
+                "kd_v_s_per_quantum = {v}: must be finite with |kd/(n·ts·u_fs)| < 32768"
+            ),
+            Self::IntegratorLimit(v) => write!(
+                f,
+                "integrator_limit_v = {v}: must be finite, ≥ 0 and below 32768 full scales"
+            ),
+            Self::DerivativeSamples(v) => write!(f, "derivative_samples = {v}: must be in 1..=4"),
+            Self::DerivativeLowPass(v) => write!(
+                f,
+                "derivative_lowpass_hz = {v}: must be 0 (off) or in (0, 1/(2·ts_s))"
+            ),
+            Self::ReferenceLowPass(v) => write!(
+                f,
+                "reference_lowpass_hz = {v}: must be 0 (off) or in (0, 1/(2·ts_s))"
             ),
         }
     }

@@ -63,9 +63,16 @@ pub fn soak(samples: u64, seeks_per_chunk: u32, progress: bool) -> Result<SoakRe
     let (tx, rx) = sync_channel::<Vec<Sample>>(2);
     let producer_params = params.clone();
     let producer = std::thread::spawn(move || -> Result<(), String> {
+        let design = baseline_design(
+            &producer_params.controller,
+            producer_params.plant.ts_s,
+            producer_params.plant.u_max_v,
+        );
         for seed in 0u64.. {
-            let twin =
-                Twin::run_baseline(producer_params.clone(), seed).map_err(|e| e.to_string())?;
+            // The library's fixed-point controller closes the loop (the full per-sample path).
+            let mut twin = Twin::new(producer_params.clone(), seed).map_err(|e| e.to_string())?;
+            let mut pid = FixedPid::new(&design).map_err(|e| e.to_string())?;
+            twin.run(&mut pid);
             let chunk: Result<Vec<Sample>, String> = twin
                 .samples()
                 .iter()

@@ -87,6 +87,8 @@ pub mod pid;
 
 pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
 
+/// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
+pub use crate::error::ConfigError;
 use core::fmt;
 
 use crate::fixed::{SignalI16F16, shr_round_i64};
@@ -209,80 +211,6 @@ pub struct ControlOutput {
     pub u: SignalI16F16,
     /// What happened.
     pub flags: ControlFlags,
-}
-
-/// A controller design parameter out of its range; the variant names it and holds the value given.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ControlConfigError {
-    /// `ts_s` not finite or not > 0.
-    SamplePeriod(f64),
-    /// `u_full_scale_v` not finite or not > 0.
-    FullScale(f64),
-    /// `u_limit_v` not finite, not > 0, or not below 32,768 full scales.
-    OutputLimit(f64),
-    /// `kp_v_per_quantum` not finite or |Kp/u_fs| ≥ 2¹⁵ per quantum.
-    Kp(f64),
-    /// `ki_v_per_quantum_s` not finite or |Ki·Ts/u_fs| ≥ 2¹⁵ per quantum.
-    Ki(f64),
-    /// `kd_v_s_per_quantum` not finite or |Kd/(n·Ts·u_fs)| ≥ 2¹⁵ per quantum.
-    Kd(f64),
-    /// `integrator_limit_v` not finite, negative, or not below 32,768 full scales.
-    IntegratorLimit(f64),
-    /// `derivative_samples` outside 1..=4.
-    DerivativeSamples(u8),
-    /// `derivative_lowpass_hz` not 0 (off) or in (0, 1/(2·Ts)).
-    DerivativeLowPass(f64),
-    /// `reference_lowpass_hz` not 0 (off) or in (0, 1/(2·Ts)).
-    ReferenceLowPass(f64),
-}
-
-impl fmt::Display for ControlConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::SamplePeriod(v) => write!(f, "ts_s = {v}: must be finite and > 0"),
-            Self::FullScale(v) => write!(f, "u_full_scale_v = {v}: must be finite and > 0"),
-            Self::OutputLimit(v) => write!(
-                f,
-                "u_limit_v = {v}: must be finite, > 0 and below 32768 full scales"
-            ),
-            Self::Kp(v) => write!(
-                f,
-                "kp_v_per_quantum = {v}: must be finite with |kp/u_fs| < 32768"
-            ),
-            Self::Ki(v) => write!(
-                f,
-                "ki_v_per_quantum_s = {v}: must be finite with |ki·ts/u_fs| < 32768"
-            ),
-            Self::Kd(v) => write!(
-                f,
-                "kd_v_s_per_quantum = {v}: must be finite with |kd/(n·ts·u_fs)| < 32768"
-            ),
-            Self::IntegratorLimit(v) => write!(
-                f,
-                "integrator_limit_v = {v}: must be finite, ≥ 0 and below 32768 full scales"
-            ),
-            Self::DerivativeSamples(v) => {
-                write!(f, "derivative_samples = {v}: must be in 1..=4")
-            }
-            Self::DerivativeLowPass(v) => write!(
-                f,
-                "derivative_lowpass_hz = {v}: must be 0 (off) or in (0, 1/(2·ts_s))"
-            ),
-            Self::ReferenceLowPass(v) => write!(
-                f,
-                "reference_lowpass_hz = {v}: must be 0 (off) or in (0, 1/(2·ts_s))"
-            ),
-        }
-    }
-}
-
-impl core::error::Error for ControlConfigError {}
-
-#[cfg(feature = "defmt")]
-impl defmt::Format for ControlConfigError {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(f, "invalid controller parameter");
-    }
 }
 
 /// A gain from an I16F16 signal to an I32F32 term: `value = m · 2^−(16 + s)`, the mantissa

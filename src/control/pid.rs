@@ -10,7 +10,7 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use super::{ControlConfigError, ControlFlags, ControlOutput, Gain, ONE_U1F31, mul_i64_u1f31};
+use super::{ConfigError, ControlFlags, ControlOutput, Gain, ONE_U1F31, mul_i64_u1f31};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{SignalI16F16, sat_i32, shr_round_i64};
 use crate::wide::mul_i32_u32_wide;
@@ -109,21 +109,21 @@ impl PidDesign {
     /// Validates and quantises.
     ///
     /// # Errors
-    /// A [`ControlConfigError`] naming the first parameter out of range.
+    /// A [`ConfigError`] naming the first parameter out of range.
     ///
     /// ```
-    /// use sledid::control::{ControlConfigError, PidDesign};
+    /// use sledid::control::{ConfigError, PidDesign};
     /// let mut d = PidDesign::new(0.455e-3, 5.0);
     /// d.kp_v_per_quantum = 0.015;
     /// d.ki_v_per_quantum_s = 200.0;
     /// d.integrator_limit_v = 0.07;
     /// assert!(d.build().is_ok());
     /// d.derivative_lowpass_hz = 5000.0; // above Nyquist
-    /// assert_eq!(d.build(), Err(ControlConfigError::DerivativeLowPass(5000.0)));
+    /// assert_eq!(d.build(), Err(ConfigError::DerivativeLowPass(5000.0)));
     /// ```
     #[allow(clippy::float_arithmetic)] // design time, not the per-sample path
-    pub fn build(&self) -> Result<PidConfig, ControlConfigError> {
-        use ControlConfigError as E;
+    pub fn build(&self) -> Result<PidConfig, ConfigError> {
+        use ConfigError as E;
         let ts = self.ts_s;
         if !(ts.is_finite() && ts > 0.0) {
             return Err(E::SamplePeriod(ts));
@@ -488,7 +488,7 @@ mod tests {
 
     #[test]
     fn build_names_the_bad_parameter() {
-        use ControlConfigError as E;
+        use ConfigError as E;
         let ok = baseline();
         assert_eq!(
             PidDesign { ts_s: 0.0, ..ok }.build(),

@@ -8,9 +8,7 @@
 //! designs).
 
 use sledid::PositionI48F16;
-use sledid::control::{
-    ControlConfigError, ControlFlags, DerivativeOn, PidConfig, PidDesign, PidState,
-};
+use sledid::control::{ConfigError, ControlFlags, DerivativeOn, PidConfig, PidDesign, PidState};
 use sledid::fixed::SignalI16F16;
 
 use crate::twin::{PidParams, SledController};
@@ -80,8 +78,8 @@ impl PidF64 {
     /// A controller in its initial state.
     ///
     /// # Errors
-    /// The [`ControlConfigError`] of [`PidDesign::build`].
-    pub fn new(design: &PidDesign) -> Result<Self, ControlConfigError> {
+    /// The [`ConfigError`] of [`PidDesign::build`].
+    pub fn new(design: &PidDesign) -> Result<Self, ConfigError> {
         design.build()?;
         Ok(Self {
             design: *design,
@@ -192,8 +190,8 @@ impl FixedPid {
     /// The controller of `design`, in its initial state.
     ///
     /// # Errors
-    /// The [`ControlConfigError`] of [`PidDesign::build`].
-    pub fn new(design: &PidDesign) -> Result<Self, ControlConfigError> {
+    /// The [`ConfigError`] of [`PidDesign::build`].
+    pub fn new(design: &PidDesign) -> Result<Self, ConfigError> {
         let config = design.build()?;
         Ok(Self {
             config,
