@@ -1,6 +1,82 @@
 //! Per-sample status flags: every decision the per-sample path takes shows here.
 
-use core::fmt;
+/// The machinery every flag set of the crate shares (`bits`, `contains`, `insert`, `|`, a `Debug`
+/// listing the set flags by name): one definition for [`Status`] and the controller's flags. The
+/// type must be a tuple struct over `$repr` with an associated `NAMES: [(Self, &str); _]`.
+#[macro_export]
+macro_rules! flag_set_impl {
+    ($name:ident, $repr:ty) => {
+        impl $name {
+            /// The raw bits.
+            pub const fn bits(self) -> $repr {
+                self.0
+            }
+
+            /// From raw bits.
+            pub const fn from_bits(bits: $repr) -> Self {
+                Self(bits)
+            }
+
+            /// True when every flag of `other` is set.
+            pub const fn contains(self, other: Self) -> bool {
+                self.0 & other.0 == other.0
+            }
+
+            /// True when any flag of `other` is set.
+            pub const fn intersects(self, other: Self) -> bool {
+                self.0 & other.0 != 0
+            }
+
+            /// Sets the flags of `other`.
+            pub fn insert(&mut self, other: Self) {
+                self.0 |= other.0;
+            }
+
+            /// Sets the flags of `other` when `cond` holds.
+            pub fn set_if(&mut self, other: Self, cond: bool) {
+                if cond {
+                    self.0 |= other.0;
+                }
+            }
+
+            /// The union.
+            #[must_use]
+            pub const fn union(self, other: Self) -> Self {
+                Self(self.0 | other.0)
+            }
+        }
+
+        impl core::ops::BitOr for $name {
+            type Output = Self;
+            fn bitor(self, rhs: Self) -> Self {
+                self.union(rhs)
+            }
+        }
+
+        impl core::ops::BitOrAssign for $name {
+            fn bitor_assign(&mut self, rhs: Self) {
+                self.insert(rhs);
+            }
+        }
+
+        impl core::fmt::Debug for $name {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                let mut first = true;
+                f.write_str(concat!(stringify!($name), "("))?;
+                for (flag, name) in Self::NAMES {
+                    if self.contains(flag) {
+                        if !first {
+                            f.write_str("|")?;
+                        }
+                        f.write_str(name)?;
+                        first = false;
+                    }
+                }
+                f.write_str(")")
+            }
+        }
+    };
+}
 
 /// A set of status flags returned by every per-sample update.
 #[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
@@ -57,72 +133,6 @@ impl Status {
         (Self::OUTLIER, "outlier"),
         (Self::SENSOR_STUCK, "sensor_stuck"),
     ];
-
-    /// The raw bits.
-    pub const fn bits(self) -> u16 {
-        self.0
-    }
-
-    /// From raw bits.
-    pub const fn from_bits(bits: u16) -> Self {
-        Self(bits)
-    }
-
-    /// True when every flag of `other` is set.
-    pub const fn contains(self, other: Self) -> bool {
-        self.0 & other.0 == other.0
-    }
-
-    /// True when any flag of `other` is set.
-    pub const fn intersects(self, other: Self) -> bool {
-        self.0 & other.0 != 0
-    }
-
-    /// Sets the flags of `other`.
-    pub fn insert(&mut self, other: Self) {
-        self.0 |= other.0;
-    }
-
-    /// Sets the flags of `other` when `cond` holds.
-    pub fn set_if(&mut self, other: Self, cond: bool) {
-        if cond {
-            self.0 |= other.0;
-        }
-    }
-
-    /// The union.
-    #[must_use]
-    pub const fn union(self, other: Self) -> Self {
-        Self(self.0 | other.0)
-    }
 }
 
-impl core::ops::BitOr for Status {
-    type Output = Self;
-    fn bitor(self, rhs: Self) -> Self {
-        self.union(rhs)
-    }
-}
-
-impl core::ops::BitOrAssign for Status {
-    fn bitor_assign(&mut self, rhs: Self) {
-        self.insert(rhs);
-    }
-}
-
-impl fmt::Debug for Status {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut first = true;
-        f.write_str("Status(")?;
-        for (flag, name) in Self::NAMES {
-            if self.contains(flag) {
-                if !first {
-                    f.write_str("|")?;
-                }
-                f.write_str(name)?;
-                first = false;
-            }
-        }
-        f.write_str(")")
-    }
-}
+flag_set_impl!(Status, u16);

@@ -89,7 +89,6 @@ pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
 
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;
-use core::fmt;
 
 use crate::fixed::{SignalI16F16, shr_round_i64};
 use crate::status::Status;
@@ -135,33 +134,6 @@ impl ControlFlags {
         (Self::FIRST_SAMPLE, "first_sample"),
     ];
 
-    /// The raw bits.
-    pub const fn bits(self) -> u8 {
-        self.0
-    }
-
-    /// True when every flag of `other` is set.
-    pub const fn contains(self, other: Self) -> bool {
-        self.0 & other.0 == other.0
-    }
-
-    /// True when any flag of `other` is set.
-    pub const fn intersects(self, other: Self) -> bool {
-        self.0 & other.0 != 0
-    }
-
-    /// Sets the flags of `other`.
-    pub fn insert(&mut self, other: Self) {
-        self.0 |= other.0;
-    }
-
-    /// Sets the flags of `other` when `cond` holds.
-    pub fn set_if(&mut self, other: Self, cond: bool) {
-        if cond {
-            self.0 |= other.0;
-        }
-    }
-
     /// The identifier-side [`Status`] equivalent: arithmetic saturation → `SATURATED`, manual →
     /// `HELD`, first sample → `WARMUP` (output and integrator limits have no equivalent).
     pub const fn status(self) -> Status {
@@ -179,29 +151,7 @@ impl ControlFlags {
     }
 }
 
-impl core::ops::BitOr for ControlFlags {
-    type Output = Self;
-    fn bitor(self, rhs: Self) -> Self {
-        Self(self.0 | rhs.0)
-    }
-}
-
-impl fmt::Debug for ControlFlags {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("ControlFlags(")?;
-        let mut first = true;
-        for (flag, name) in Self::NAMES {
-            if self.contains(flag) {
-                if !first {
-                    f.write_str("|")?;
-                }
-                f.write_str(name)?;
-                first = false;
-            }
-        }
-        f.write_str(")")
-    }
-}
+crate::flag_set_impl!(ControlFlags, u8);
 
 /// The result of one controller step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
