@@ -57,7 +57,50 @@ pub fn compare_linear<const N: usize>(
     let cfg = design.build().expect("valid design");
     let mut st = cfg.new_state();
     let mut reference = LinearF64::new(design);
-    compare_with(&cfg, &mut st, &mut reference, design, y, u, skip, decisions)
+    let mut max_rel = 0.0f64;
+    let mut final_rel = 0.0;
+    let (mut upd_fx, mut upd_f64, mut mismatch, mut sat) = (0, 0, 0, 0);
+    let yq: Vec<SignalI16F16> = y.iter().map(|&v| to_signal(v)).collect();
+    let uq: Vec<SignalI16F16> = u.iter().map(|&v| to_signal(v)).collect();
+    for t in 0..y.len() {
+        let e = cfg.step(&mut st, yq[t], uq[t]);
+        let fx_up = e.status.contains(sledid::Status::UPDATED);
+        let force = (decisions == Decisions::Locked).then_some(fx_up);
+        let r = reference.step_forced(yq[t].to_f64(), uq[t].to_f64(), force);
+        let f_up = r.status.contains(sledid::Status::UPDATED);
+        upd_fx += usize::from(fx_up);
+        upd_f64 += usize::from(f_up);
+        mismatch += usize::from(
+            fx_up != f_up
+                || reference.rls.last_overridden
+                || e.status.contains(sledid::Status::PROJECTED)
+                    != r.status.contains(sledid::Status::PROJECTED),
+        );
+        sat += usize::from(e.status.contains(sledid::Status::SATURATED));
+        let th_fx: Vec<f64> = st.theta().iter().map(|p| p.to_f64()).collect();
+        final_rel = relative_distance(&th_fx, reference.theta());
+        if t >= skip {
+            max_rel = max_rel.max(final_rel);
+        }
+    }
+    let theta_fx: Vec<f64> = st.theta().iter().map(|p| p.to_f64()).collect();
+    let theta_f64 = reference.theta().to_vec();
+    let yd: Vec<f64> = yq.iter().map(|v| v.to_f64()).collect();
+    let ud: Vec<f64> = uq.iter().map(|v| v.to_f64()).collect();
+    let sim_fx = simulate(&theta_fx, &ud, design.na, design.nk);
+    let sim_f = simulate(&theta_f64, &ud, design.na, design.nk);
+    Comparison {
+        max_rel_theta_err: max_rel,
+        final_rel_theta_err: final_rel,
+        sim_rms_fx: rms_error(&sim_fx, &yd),
+        sim_rms_f64: rms_error(&sim_f, &yd),
+        theta_fx,
+        theta_f64,
+        updates_fx: upd_fx,
+        updates_f64: upd_f64,
+        decision_mismatches: mismatch,
+        saturated: sat,
+    }
 }
 
 /// How much a problem's estimate moves when only the signal format changes.
@@ -109,61 +152,4 @@ pub fn relative_distance(a: &[f64], b: &[f64]) -> f64 {
         .sum::<f64>()
         .sqrt();
     num / b.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-9)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn compare_with<const N: usize>(
-    cfg: &sledid::linear::LinearConfig<N>,
-    st: &mut sledid::linear::LinearState<N>,
-    reference: &mut LinearF64<N>,
-    design: &LinearDesign<N>,
-    y: &[f64],
-    u: &[f64],
-    skip: usize,
-    decisions: Decisions,
-) -> Comparison {
-    let mut max_rel = 0.0f64;
-    let mut final_rel = 0.0;
-    let (mut upd_fx, mut upd_f64, mut mismatch, mut sat) = (0, 0, 0, 0);
-    let yq: Vec<SignalI16F16> = y.iter().map(|&v| to_signal(v)).collect();
-    let uq: Vec<SignalI16F16> = u.iter().map(|&v| to_signal(v)).collect();
-    for t in 0..y.len() {
-        let e = cfg.step(st, yq[t], uq[t]);
-        let fx_up = e.status.contains(sledid::Status::UPDATED);
-        let force = (decisions == Decisions::Locked).then_some(fx_up);
-        let r = reference.step_forced(yq[t].to_f64(), uq[t].to_f64(), force);
-        let f_up = r.status.contains(sledid::Status::UPDATED);
-        upd_fx += usize::from(fx_up);
-        upd_f64 += usize::from(f_up);
-        mismatch += usize::from(
-            fx_up != f_up
-                || reference.rls.last_overridden
-                || e.status.contains(sledid::Status::PROJECTED)
-                    != r.status.contains(sledid::Status::PROJECTED),
-        );
-        sat += usize::from(e.status.contains(sledid::Status::SATURATED));
-        let th_fx: Vec<f64> = st.theta().iter().map(|p| p.to_f64()).collect();
-        final_rel = relative_distance(&th_fx, reference.theta());
-        if t >= skip {
-            max_rel = max_rel.max(final_rel);
-        }
-    }
-    let theta_fx: Vec<f64> = st.theta().iter().map(|p| p.to_f64()).collect();
-    let theta_f64 = reference.theta().to_vec();
-    let yd: Vec<f64> = yq.iter().map(|v| v.to_f64()).collect();
-    let ud: Vec<f64> = uq.iter().map(|v| v.to_f64()).collect();
-    let sim_fx = simulate(&theta_fx, &ud, design.na, design.nk);
-    let sim_f = simulate(&theta_f64, &ud, design.na, design.nk);
-    Comparison {
-        max_rel_theta_err: max_rel,
-        final_rel_theta_err: final_rel,
-        sim_rms_fx: rms_error(&sim_fx, &yd),
-        sim_rms_f64: rms_error(&sim_f, &yd),
-        theta_fx,
-        theta_f64,
-        updates_fx: upd_fx,
-        updates_f64: upd_f64,
-        decision_mismatches: mismatch,
-        saturated: sat,
-    }
 }
