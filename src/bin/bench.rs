@@ -331,9 +331,8 @@ mod target {
 
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo) -> ! {
-        loop {
-            cortex_m::asm::udf();
-        }
+        // A permanently undefined instruction: the emulator (and a debugger) stops here.
+        cortex_m::asm::udf()
     }
 }
 
