@@ -38,7 +38,7 @@ fn test() -> bool {
     ];
     for t in THUMB_TARGETS {
         steps.push(vec![
-            "clippy", "--lib", "--target", t, "--", "-D", "warnings",
+            "clippy", "--lib", "--bins", "--target", t, "--", "-D", "warnings",
         ]);
         steps.push(vec!["build", "--lib", "--release", "--target", t]);
     }
