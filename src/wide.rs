@@ -15,15 +15,16 @@
 
 #![deny(clippy::float_arithmetic)]
 
+/// True when compiling for Armv6-M (no `UMULL`/`SMULL`/`CLZ`): see the module doc. A constant, so
+/// the untaken branch below is removed at compile time.
+const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+
 /// Exact `a · b` as `u64`.
 #[inline(always)]
 pub fn mul_u32_wide(a: u32, b: u32) -> u64 {
-    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
-    {
+    if ARMV6M {
         mul_u32_wide_by_halves(a, b)
-    }
-    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
-    {
+    } else {
         u64::from(a) * u64::from(b)
     }
 }
@@ -31,12 +32,9 @@ pub fn mul_u32_wide(a: u32, b: u32) -> u64 {
 /// Bit length of `x` (0 for 0, 64 for values ≥ 2⁶³): `64 − x.leading_zeros()`.
 #[inline(always)]
 pub fn bit_len_u64(x: u64) -> i32 {
-    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
-    {
+    if ARMV6M {
         bit_len_u64_by_search(x)
-    }
-    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
-    {
+    } else {
         64 - x.leading_zeros() as i32
     }
 }
@@ -89,13 +87,10 @@ pub fn mul_u32_wide_by_halves(a: u32, b: u32) -> u64 {
 /// Exact `a · b` as `i64` for signed `a` and unsigned `b`.
 #[inline(always)]
 pub fn mul_i32_u32_wide(a: i32, b: u32) -> i64 {
-    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
-    {
+    if ARMV6M {
         let p = mul_u32_wide_by_halves(a.unsigned_abs(), b) as i64; // < 2^63
         if a < 0 { -p } else { p }
-    }
-    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
-    {
+    } else {
         // One SMULL-class multiply on Armv7-M; |a·b| < 2^63.
         i64::from(a) * i64::from(b)
     }
@@ -104,20 +99,16 @@ pub fn mul_i32_u32_wide(a: i32, b: u32) -> i64 {
 /// Exact `a · b` as `i64` for signed operands.
 #[inline(always)]
 pub fn mul_i32_wide(a: i32, b: i32) -> i64 {
-    #[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
-    {
-        let p = mul_u32_wide_by_halves(a.unsigned_abs(), b.unsigned_abs()) as i64; // ≤ 2^62
-        if (a < 0) != (b < 0) { -p } else { p }
-    }
-    #[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
-    {
+    if ARMV6M {
+        mul_i32_wide_by_halves(a, b)
+    } else {
         // One SMULL on Armv7-M; |a·b| ≤ 2^62.
         i64::from(a) * i64::from(b)
     }
 }
 
 /// The Armv6-M path of [`mul_i32_wide`], callable on every target so the tests can compare paths.
-#[inline]
+#[inline(always)]
 pub fn mul_i32_wide_by_halves(a: i32, b: i32) -> i64 {
     let p = mul_u32_wide_by_halves(a.unsigned_abs(), b.unsigned_abs()) as i64;
     if (a < 0) != (b < 0) { -p } else { p }
