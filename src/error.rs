@@ -77,6 +77,13 @@ pub enum ConfigError {
         /// Parameter count of the estimator.
         n: usize,
     },
+    /// The estimator's parameter count N does not match the nonlinear structure's.
+    ParameterCount {
+        /// What the structure needs.
+        expected: usize,
+        /// The estimator's N.
+        n: usize,
+    },
     /// Input delay nk outside the supported range.
     Delay(usize),
     /// Stability margin outside [0, 0.5).
@@ -134,6 +141,10 @@ impl fmt::Display for ConfigError {
             Self::ModelOrder { na, nb, n } => write!(
                 f,
                 "model order na = {na}, nb = {nb}: na + nb must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+            ),
+            Self::ParameterCount { expected, n } => write!(
+                f,
+                "parameter count {n}: this nonlinear structure has {expected} parameters"
             ),
             Self::Delay(v) => write!(f, "nk = {v}: the input delay must be in 0..=8"),
             Self::StabilityMargin(v) => {

@@ -17,10 +17,11 @@
 //! and otherwise undone ([`Status::PROJECTED`]); P keeps its update (Ljung 1999, §11.3).
 
 use crate::error::ConfigError;
+use crate::estimator::{Estimator, EstimatorDesign};
 use crate::fixed::{ParamI12F20, SignalI16F16};
 use crate::regressor::{History, MAX_DELAY};
 use crate::rls::{RlsConfig, RlsDesign, RlsState};
-use crate::stability::PoleRadius;
+use crate::stability::{PoleRadius, project_denominator};
 use crate::status::Status;
 
 /// Which linear structure is estimated.
@@ -233,32 +234,12 @@ impl<const N: usize> LinearConfig<N> {
         psi
     }
 
-    /// Keeps the denominator inside the allowed pole region (halving the step, else undoing it).
+    /// Keeps the denominator inside the allowed pole region ([`project_denominator`]).
     fn project(&self, st: &mut LinearState<N>, theta_old: &[ParamI12F20; N]) -> Status {
-        let Some(radius) = self.radius else {
-            return Status::NONE;
-        };
-        let na = self.na;
-        let theta_new = *st.rls.theta();
-        if theta_new.get(..na).is_none_or(|den| radius.contains(den)) {
-            return Status::NONE;
+        match self.radius {
+            Some(radius) => project_denominator(radius, self.na, &mut st.rls, theta_old),
+            None => Status::NONE,
         }
-        for halvings in 1..=4u32 {
-            let mut trial = *theta_old;
-            for ((t, n), o) in trial.iter_mut().zip(theta_new.iter()).zip(theta_old.iter()) {
-                let step = i64::from(n.raw()) - i64::from(o.raw());
-                let raw = i64::from(o.raw()) + (step >> halvings);
-                *t = ParamI12F20::from_raw(
-                    raw.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
-                );
-            }
-            if trial.get(..na).is_some_and(|den| radius.contains(den)) {
-                st.rls.set_theta(trial);
-                return Status::PROJECTED;
-            }
-        }
-        st.rls.set_theta(*theta_old);
-        Status::PROJECTED
     }
 }
 
@@ -276,6 +257,38 @@ impl<const N: usize> LinearState<N> {
     /// Holds (false) or enables (true) adaptation.
     pub fn set_enabled(&mut self, enabled: bool) {
         self.rls.set_enabled(enabled);
+    }
+}
+
+impl<const N: usize> EstimatorDesign<N> for LinearDesign<N> {
+    type Config = LinearConfig<N>;
+
+    fn build(&self) -> Result<LinearConfig<N>, ConfigError> {
+        LinearDesign::build(self)
+    }
+}
+
+impl<const N: usize> Estimator<N> for LinearConfig<N> {
+    type State = LinearState<N>;
+
+    fn new_state(&self) -> LinearState<N> {
+        LinearConfig::new_state(self)
+    }
+
+    fn step(&self, state: &mut LinearState<N>, y: SignalI16F16, u: SignalI16F16) -> Estimate {
+        LinearConfig::step(self, state, y, u)
+    }
+
+    fn theta<'a>(&self, state: &'a LinearState<N>) -> &'a [ParamI12F20; N] {
+        state.theta()
+    }
+
+    fn rls<'a>(&self, state: &'a LinearState<N>) -> &'a RlsState<N> {
+        state.rls()
+    }
+
+    fn set_enabled(&self, state: &mut LinearState<N>, enabled: bool) {
+        state.set_enabled(enabled);
     }
 }
 

@@ -12,6 +12,8 @@
 
 use crate::error::ConfigError;
 use crate::fixed::ParamI12F20;
+use crate::rls::RlsState;
+use crate::status::Status;
 
 /// Radius ρ of the allowed pole region, I12F20.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +52,36 @@ impl PoleRadius {
             }
         }
     }
+}
+
+/// Keeps the denominator θ[..na] of the estimate just made inside |z| ≤ ρ: if the update left the
+/// region, the step θ(t) − θ(t−1) is halved up to four times and otherwise undone
+/// ([`Status::PROJECTED`]); P keeps its update (Ljung 1999, §11.3). Every structure whose θ starts
+/// with its denominator (the linear OE models and the paper's nonlinear models) shares this.
+pub fn project_denominator<const N: usize>(
+    radius: PoleRadius,
+    na: usize,
+    st: &mut RlsState<N>,
+    theta_old: &[ParamI12F20; N],
+) -> Status {
+    let theta_new = *st.theta();
+    if theta_new.get(..na).is_none_or(|den| radius.contains(den)) {
+        return Status::NONE;
+    }
+    for halvings in 1..=4u32 {
+        let mut trial = *theta_old;
+        for ((t, n), o) in trial.iter_mut().zip(theta_new.iter()).zip(theta_old.iter()) {
+            let step = i64::from(n.raw()) - i64::from(o.raw());
+            let raw = i64::from(o.raw()) + (step >> halvings);
+            *t = ParamI12F20::from_raw(raw.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
+        }
+        if trial.get(..na).is_some_and(|den| radius.contains(den)) {
+            st.set_theta(trial);
+            return Status::PROJECTED;
+        }
+    }
+    st.set_theta(*theta_old);
+    Status::PROJECTED
 }
 
 #[cfg(test)]

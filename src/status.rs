@@ -115,9 +115,12 @@ impl Status {
     pub const OUTLIER: Self = Self(1 << 12);
     /// The position sensor looks stuck (no change while driven): the estimator is held.
     pub const SENSOR_STUCK: Self = Self(1 << 13);
+    /// A nonlinear model's sensitivity filter left the stability region: the gradient was filtered
+    /// by the (projected) linear denominator alone this sample.
+    pub const GRADIENT_LIMITED: Self = Self(1 << 14);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 14] = [
+    pub const NAMES: [(Self, &'static str); 15] = [
         (Self::UPDATED, "updated"),
         (Self::DEAD_ZONE, "dead_zone"),
         (Self::LOW_EXCITATION, "low_excitation"),
@@ -132,6 +135,7 @@ impl Status {
         (Self::WARMUP, "warmup"),
         (Self::OUTLIER, "outlier"),
         (Self::SENSOR_STUCK, "sensor_stuck"),
+        (Self::GRADIENT_LIMITED, "gradient_limited"),
     ];
 }
 

@@ -2,8 +2,9 @@
 //! closed-loop twin and the tests all call, so what is tested is what runs.
 //!
 //! `step(config, state, sample) → StepOutput`: condition the raw sample (centre on the reference or
-//! difference, [`crate::conditioning::Conditioning`]), run the identifier (ARX or OE,
-//! [`crate::linear`]), and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
+//! difference, [`crate::conditioning::Conditioning`]), run the model estimator (ARX or OE,
+//! [`crate::linear`]; or one of the paper's nonlinear models, [`crate::nonlinear`] — anything that is
+//! an [`Estimator`]), and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
 //!
 //! # Degradation on bad input (documented and tested in `host-tests/tests/faults.rs`)
 //! - A sample the boundary cannot convert (NaN, ±∞, out of range, a missing reading) is passed as
@@ -17,6 +18,7 @@
 use crate::boundary::{PositionI48F16, Sample};
 use crate::conditioning::{Conditioning, ConditioningState};
 use crate::error::ConfigError;
+use crate::estimator::{Estimator, EstimatorDesign};
 use crate::fixed::{ParamI12F20, SignalI16F16};
 use crate::linear::{LinearConfig, LinearDesign, LinearState};
 use crate::status::Status;
@@ -30,13 +32,14 @@ pub struct StuckSensorDesign {
     pub min_drive: f64,
 }
 
-/// User-facing settings of the identifier.
+/// User-facing settings of the identifier: conditioning, a model estimator design `D` (a linear one
+/// by default), stuck-sensor detection.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct IdentifierDesign<const N: usize> {
+pub struct IdentifierDesign<const N: usize, D = LinearDesign<N>> {
     /// How raw samples are conditioned.
     pub conditioning: Conditioning,
-    /// The linear model estimator.
-    pub model: LinearDesign<N>,
+    /// The model estimator.
+    pub model: D,
     /// Stuck-sensor detection (`None`: off).
     pub stuck_sensor: Option<StuckSensorDesign>,
 }
@@ -49,9 +52,9 @@ struct StuckSensor {
     min_drive_i16f16: u32,
 }
 
-impl<const N: usize> IdentifierDesign<N> {
+impl<const N: usize, D: EstimatorDesign<N>> IdentifierDesign<N, D> {
     /// A design without stuck-sensor detection.
-    pub fn new(conditioning: Conditioning, model: LinearDesign<N>) -> Self {
+    pub fn new(conditioning: Conditioning, model: D) -> Self {
         Self {
             conditioning,
             model,
@@ -63,7 +66,7 @@ impl<const N: usize> IdentifierDesign<N> {
     ///
     /// # Errors
     /// The model's [`ConfigError`], or [`ConfigError::StuckSensor`].
-    pub fn build(&self) -> Result<IdentifierConfig<N>, ConfigError> {
+    pub fn build(&self) -> Result<IdentifierConfig<N, D::Config>, ConfigError> {
         let stuck = match self.stuck_sensor {
             None => None,
             Some(d) => {
@@ -86,20 +89,20 @@ impl<const N: usize> IdentifierDesign<N> {
     }
 }
 
-/// Validated identifier configuration.
+/// Validated identifier configuration around a model estimator `M`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct IdentifierConfig<const N: usize> {
+pub struct IdentifierConfig<const N: usize, M = LinearConfig<N>> {
     conditioning: Conditioning,
-    model: LinearConfig<N>,
+    model: M,
     stuck: Option<StuckSensor>,
 }
 
-/// Everything the identifier mutates.
+/// Everything the identifier mutates; `S` is the model estimator's state.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct IdentifierState<const N: usize> {
+pub struct IdentifierState<const N: usize, S = LinearState<N>> {
     conditioning: ConditioningState,
-    model: LinearState<N>,
+    model: S,
     /// Adaptation enabled by the user (the stuck-sensor hold comes on top).
     enabled: bool,
     last_y: PositionI48F16,
@@ -126,9 +129,9 @@ pub struct StepOutput<const N: usize> {
     pub status: Status,
 }
 
-impl<const N: usize> IdentifierConfig<N> {
+impl<const N: usize, M: Estimator<N>> IdentifierConfig<N, M> {
     /// A fresh state.
-    pub fn new_state(&self) -> IdentifierState<N> {
+    pub fn new_state(&self) -> IdentifierState<N, M::State> {
         IdentifierState {
             conditioning: ConditioningState::default(),
             model: self.model.new_state(),
@@ -140,7 +143,7 @@ impl<const N: usize> IdentifierConfig<N> {
     }
 
     /// The model configuration.
-    pub fn model(&self) -> &LinearConfig<N> {
+    pub fn model(&self) -> &M {
         &self.model
     }
 
@@ -150,23 +153,22 @@ impl<const N: usize> IdentifierConfig<N> {
     }
 }
 
-impl<const N: usize> IdentifierState<N> {
+impl<const N: usize, S> IdentifierState<N, S> {
     /// The model estimator's state.
-    pub fn model(&self) -> &LinearState<N> {
+    pub fn model(&self) -> &S {
         &self.model
     }
 
-    /// Holds (false) or enables (true) adaptation.
+    /// Holds (false) or enables (true) adaptation (applied from the next sample on).
     pub fn set_enabled(&mut self, enabled: bool) {
         self.enabled = enabled;
-        self.model.set_enabled(enabled);
     }
 }
 
 /// One sample through the identifier. Never panics.
-pub fn step<const N: usize>(
-    config: &IdentifierConfig<N>,
-    state: &mut IdentifierState<N>,
+pub fn step<const N: usize, M: Estimator<N>>(
+    config: &IdentifierConfig<N, M>,
+    state: &mut IdentifierState<N, M::State>,
     sample: &Sample,
 ) -> StepOutput<N> {
     let mut sat = false;
@@ -181,7 +183,9 @@ pub fn step<const N: usize>(
     });
     state.last_y = sample.y;
     state.has_last_y = true;
-    state.model.set_enabled(state.enabled && !stuck);
+    config
+        .model
+        .set_enabled(&mut state.model, state.enabled && !stuck);
     let Some((y, u)) = config
         .conditioning
         .apply(&mut state.conditioning, sample, &mut sat)
@@ -191,11 +195,11 @@ pub fn step<const N: usize>(
             u: SignalI16F16::ZERO,
             y_hat: SignalI16F16::ZERO,
             eps: SignalI16F16::ZERO,
-            theta: *state.model.theta(),
+            theta: *config.model.theta(&state.model),
             status: Status::WARMUP,
         };
     };
-    let est = config.model.step(&mut state.model, y, u);
+    let est = Estimator::step(&config.model, &mut state.model, y, u);
     let mut status = est.status;
     status.set_if(Status::SATURATED, sat);
     status.set_if(Status::SENSOR_STUCK, stuck);
@@ -204,16 +208,16 @@ pub fn step<const N: usize>(
         u,
         y_hat: est.y_hat,
         eps: est.eps,
-        theta: *state.model.theta(),
+        theta: *config.model.theta(&state.model),
         status,
     }
 }
 
 /// A sample that could not be read or converted (NaN, ±∞, out of range, missing): θ and P are held,
 /// the conditioning re-primes so no difference spans the gap. Never panics.
-pub fn reject<const N: usize>(
-    _config: &IdentifierConfig<N>,
-    state: &mut IdentifierState<N>,
+pub fn reject<const N: usize, M: Estimator<N>>(
+    config: &IdentifierConfig<N, M>,
+    state: &mut IdentifierState<N, M::State>,
 ) -> StepOutput<N> {
     state.conditioning = ConditioningState::default();
     StepOutput {
@@ -221,7 +225,7 @@ pub fn reject<const N: usize>(
         u: SignalI16F16::ZERO,
         y_hat: SignalI16F16::ZERO,
         eps: SignalI16F16::ZERO,
-        theta: *state.model.theta(),
+        theta: *config.model.theta(&state.model),
         status: Status::INPUT_REJECTED,
     }
 }

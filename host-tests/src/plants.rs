@@ -77,3 +77,78 @@ pub fn closed_loop(spec: &ClosedLoopSpec) -> ClosedLoopRecord {
     }
     rec
 }
+
+/// The kind of nonlinearity of a [`nonlinear_closed_loop`] plant, one per nonlinear structure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NonlinearPlant {
+    /// Soft saturation at the input (Hammerstein): `x(t) = 0.9x(t−1) + 4·0.5 tanh(u(t−1)/0.5)`.
+    InputSaturation,
+    /// Soft saturation at the output (Wiener): `x(t) = 0.9x(t−1) + 4u(t−1)`,
+    /// `y = x + 6 tanh(x/8)` (a stiffer sensor response around zero).
+    OutputMap,
+    /// Second-order position dynamics with Coulomb-like friction on the velocity:
+    /// `x(t) = 1.6x(t−1) − 0.64x(t−2) + 0.6u(t−1) − 0.25 tanh((x(t−1) − x(t−2))/0.2)`.
+    Friction,
+    /// Input saturation acting on a second-order plant (eq. 7):
+    /// `x(t) = 1.5x(t−1) − 0.6x(t−2) + 0.5 tanh(u(t−1)/0.5) + 0.2u(t−2)`.
+    SecondOrderInput,
+}
+
+impl NonlinearPlant {
+    /// The true static nonlinearity in the coordinates the matching structure estimates (the
+    /// neurons' part for input and friction plants, the whole output map for the Wiener plant).
+    pub fn true_map(self, x: f64) -> f64 {
+        match self {
+            Self::InputSaturation => 2.0 * (x / 0.5).tanh(),
+            Self::OutputMap => x + 6.0 * (x / 8.0).tanh(),
+            Self::Friction => -0.25 * (x / 0.2).tanh(),
+            Self::SecondOrderInput => 0.5 * (x / 0.5).tanh(),
+        }
+    }
+
+    fn next(self, x: [f64; 2], u: [f64; 2]) -> f64 {
+        match self {
+            Self::InputSaturation => 0.9 * x[0] + self.true_map(u[0]),
+            Self::OutputMap => 0.9 * x[0] + 4.0 * u[0],
+            Self::Friction => 1.6 * x[0] - 0.64 * x[1] + 0.6 * u[0] + self.true_map(x[0] - x[1]),
+            Self::SecondOrderInput => 1.5 * x[0] - 0.6 * x[1] + self.true_map(u[0]) + 0.2 * u[1],
+        }
+    }
+
+    fn output(self, x: f64) -> f64 {
+        match self {
+            Self::OutputMap => self.true_map(x),
+            _ => x,
+        }
+    }
+}
+
+/// A nonlinear plant in closed loop under the proportional controller of [`closed_loop`] (random
+/// steps every `step_every` samples up to ±`step_max` quanta, uniform dither), output quantised to
+/// one quantum.
+pub fn nonlinear_closed_loop(plant: NonlinearPlant, spec: &ClosedLoopSpec) -> ClosedLoopRecord {
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    let mut rec = ClosedLoopRecord::default();
+    let (mut x, mut u_lag, mut r) = ([0.0f64; 2], [0.0f64; 2], 0.0);
+    for t in 0..spec.samples {
+        if t % spec.step_every == 0 && t > 0 {
+            r = rng.gen_range(-spec.step_max..=spec.step_max).round();
+        }
+        let xt = plant.next(x, u_lag);
+        x = [xt, x[0]];
+        let y = plant.output(xt);
+        let yq = y.round();
+        let dither = if spec.dither > 0.0 {
+            rng.gen_range(-spec.dither..=spec.dither)
+        } else {
+            0.0
+        };
+        let u = (spec.kp * (r - yq) + dither).clamp(-1.0, 1.0);
+        u_lag = [u, u_lag[0]];
+        rec.r.push(r);
+        rec.u.push(u);
+        rec.y.push(yq);
+        rec.y_true.push(y);
+    }
+    rec
+}

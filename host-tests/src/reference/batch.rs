@@ -84,3 +84,30 @@ pub fn rms_error(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len()).max(1);
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / n as f64).sqrt()
 }
+
+/// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
+pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for c in 0..n {
+        let p = (c..n).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if a[p][c].abs() < f64::MIN_POSITIVE {
+            return None;
+        }
+        a.swap(c, p);
+        b.swap(c, p);
+        for r in c + 1..n {
+            let m = a[r][c] / a[c][c];
+            let (pivot_rows, rest) = a.split_at_mut(r);
+            for (x, p) in rest[0][c..].iter_mut().zip(&pivot_rows[c][c..]) {
+                *x -= m * p;
+            }
+            b[r] -= m * b[c];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (b[r] - s) / a[r][r];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}

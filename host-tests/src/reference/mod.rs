@@ -5,6 +5,9 @@
 //!   the same gates (dead zone, excitation, hold) and covariance limits as [`sledid::rls`].
 //! - [`linear::LinearF64`]: ARX / OE (pseudo-linear and prediction-error) with the same regressors,
 //!   the same a-priori/a-posteriori convention and the same stability projection as [`sledid::linear`].
+//! - [`nonlinear::NonlinearF64`]: the paper's nonlinear models (eq. 5–7, Wiener, friction feedback)
+//!   recursively, mirroring [`sledid::nonlinear`]; [`nonlinear_batch`]: their Levenberg–Marquardt
+//!   fit on the simulation error.
 //! - [`batch`]: batch least squares and simulation of a linear model (the exact optimum and the
 //!   simulation RMS reported by the study).
 
@@ -13,4 +16,6 @@ pub mod control;
 pub mod decimate;
 pub mod linear;
 pub mod neuron;
+pub mod nonlinear;
+pub mod nonlinear_batch;
 pub mod rls;

@@ -20,7 +20,7 @@
 
 use serde::Serialize;
 
-use crate::reference::batch::least_squares;
+use crate::reference::batch::{least_squares, solve};
 
 /// Largest pole modulus an unstable ARX fit is projected to before it initialises OE.
 pub const PROJECTION_RADIUS: f64 = 0.99;
@@ -327,33 +327,6 @@ fn sensitivities(den: &[f64], num: &[f64], u: &[f64], y: &[f64]) -> (Vec<f64>, V
         }
     }
     (yhat, psi)
-}
-
-/// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
-fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    for c in 0..n {
-        let p = (c..n).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if a[p][c].abs() < f64::MIN_POSITIVE {
-            return None;
-        }
-        a.swap(c, p);
-        b.swap(c, p);
-        for r in c + 1..n {
-            let m = a[r][c] / a[c][c];
-            let (pivot_rows, rest) = a.split_at_mut(r);
-            for (x, p) in rest[0][c..].iter_mut().zip(&pivot_rows[c][c..]) {
-                *x -= m * p;
-            }
-            b[r] -= m * b[c];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for r in (0..n).rev() {
-        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
-        x[r] = (b[r] - s) / a[r][r];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// OE of `order` by Levenberg–Marquardt on the simulation SSE, started from `arx` (see the module

@@ -1,0 +1,45 @@
+//! What the per-sample step needs from a model estimator, so one [`crate::step::step`] drives the
+//! linear models ([`crate::linear`], eq. 1–2) and the paper's nonlinear ones ([`crate::nonlinear`],
+//! eq. 5–7, Wiener, friction feedback) alike.
+//!
+//! Every estimator follows the crate's split: a `…Design` in engineering units builds a validated,
+//! quantised configuration (`&self` in the per-sample call) and a state it mutates.
+
+use crate::error::ConfigError;
+use crate::fixed::{ParamI12F20, SignalI16F16};
+use crate::linear::Estimate;
+use crate::rls::RlsState;
+
+/// A validated model estimator with N parameters.
+pub trait Estimator<const N: usize> {
+    /// Everything one sample mutates.
+    type State;
+
+    /// A fresh state at the configured initial parameters.
+    fn new_state(&self) -> Self::State;
+
+    /// One sample of conditioned output y(t) and input u(t): ŷ(t), ε(t), the update, the flags.
+    /// Never panics.
+    fn step(&self, state: &mut Self::State, y: SignalI16F16, u: SignalI16F16) -> Estimate;
+
+    /// The current estimate θ.
+    fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20; N];
+
+    /// The recursive least-squares state (θ, UD factors of P).
+    fn rls<'a>(&self, state: &'a Self::State) -> &'a RlsState<N>;
+
+    /// Holds (false) or enables (true) adaptation.
+    fn set_enabled(&self, state: &mut Self::State, enabled: bool);
+}
+
+/// User-facing settings of a model estimator: validate and quantise into an [`Estimator`].
+pub trait EstimatorDesign<const N: usize> {
+    /// The validated configuration.
+    type Config: Estimator<N>;
+
+    /// Validates and quantises.
+    ///
+    /// # Errors
+    /// A [`ConfigError`] naming the parameter that is out of range.
+    fn build(&self) -> Result<Self::Config, ConfigError>;
+}
