@@ -305,7 +305,7 @@ fn initial_model_equals_the_linear_one() {
         y: 30.0,
         dy: 2.0,
     };
-    let mut d =
+    let d =
         NonlinearDesign::<7>::from_linear(NonlinearStructure::Noe221, &[-1.5, 0.6, 0.5, 0.2], r);
     let cfg = d.build().unwrap();
     let mut st = cfg.new_state();

@@ -142,6 +142,6 @@ mod tests {
             ParamI12F20::MIN,
             [SignalI16F16::MAX, SignalI16F16::MIN],
         );
-        assert!(o.g.raw().abs() <= ParamI12F20::MAX.raw() >> 4);
+        assert!(o.g.raw().abs() <= (ParamI12F20::MAX.raw() >> 4) + 1);
     }
 }
