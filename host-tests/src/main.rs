@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand};
 use sledid::conditioning::Conditioning;
 use sledid::linear::{LinearDesign, Structure};
+use sledid::nonlinear::NonlinearStructure;
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::step::{IdentifierDesign, step};
 use sledid::{Scaling, Status};
@@ -85,9 +86,15 @@ struct ReplayArgs {
     /// Sampling period (s) when there is no time column (or to check the one there is).
     #[arg(long)]
     ts: Option<f64>,
-    /// Model structure.
-    #[arg(long, default_value = "arx", value_parser = ["arx", "oe", "oe-pem"])]
+    /// Model structure: linear (arx, oe = pseudo-linear OE, oe-pem = prediction-error OE) or one of
+    /// the paper's nonlinear models (hammerstein = eq. 5, noe = eq. 6, noe221 = eq. 7, wiener,
+    /// friction = friction feedback), which start from the linear OE model of their order.
+    #[arg(long, default_value = "arx", value_parser = ["arx", "oe", "oe-pem", "hammerstein", "noe", "noe221", "wiener", "friction"])]
     model: String,
+    /// A nonlinear model's initial linear part `f1[,f2],b1[,b2]` (default: identified first by a
+    /// linear OE replay of the same file).
+    #[arg(long)]
+    init: Option<String>,
     /// Orders `na,nb`.
     #[arg(long, default_value = "2,2")]
     order: String,
@@ -153,6 +160,17 @@ fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
         "oe-pem" => Structure::OutputErrorPredictionError,
         _ => Structure::Arx,
     };
+    spec.nonlinear = NonlinearStructure::ALL
+        .into_iter()
+        .find(|s| s.name() == a.model);
+    if let Some(init) = &a.init {
+        let v: Vec<f64> = init
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("--init `{init}`: expected numbers f1[,f2],b1[,b2]"))?;
+        spec.nonlinear_init = Some(v);
+    }
     let order: Vec<usize> = a
         .order
         .split(',')

@@ -13,9 +13,12 @@ use crate::faults::{Fault, Injector, Reading};
 use crate::recording::{ReaderOptions, RecordingReader};
 use crate::reference::batch::{rms_error, simulate};
 use crate::reference::linear::LinearF64;
+use crate::reference::nonlinear::{self as nl64, NonlinearF64};
 use serde_json::json;
 use sledid::conditioning::Conditioning;
+use sledid::estimator::{Estimator, EstimatorDesign};
 use sledid::linear::{LinearDesign, Structure};
+use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::step::{IdentifierDesign, StuckSensorDesign, reject, step};
 use sledid::{Scaling, Status};
@@ -62,10 +65,17 @@ pub enum BadSample {
 pub struct ReplaySpec {
     /// Reader settings (column mapping, Ts, scales).
     pub reader: ReaderOptions,
-    /// Model structure.
+    /// Model structure (the linear part's, for a nonlinear model: OE prediction error).
     pub structure: Structure,
-    /// (na, nb); na + nb ∈ {2, 3, 4}.
+    /// (na, nb); na + nb ∈ {2, 3, 4}. Ignored for a nonlinear model (its structure fixes them).
     pub order: (usize, usize),
+    /// One of the paper's nonlinear models instead of a linear one. It starts from the linear OE
+    /// model of its order (the paper's initialisation), taken from `nonlinear_init` or else
+    /// identified first by a replay of the same file through the linear OE (prediction-error)
+    /// estimator, which also gives the neurons' input ranges.
+    pub nonlinear: Option<NonlinearStructure>,
+    /// The linear model [f…, b…] a nonlinear model starts from (None: identified first).
+    pub nonlinear_init: Option<Vec<f64>>,
     /// Conditioning of the raw samples.
     pub conditioning: Conditioning,
     /// Position unit at the boundary (m per unit), i.e. the sensor quantum or a multiple of it.
@@ -93,6 +103,8 @@ impl ReplaySpec {
             reader,
             structure: Structure::Arx,
             order: (2, 2),
+            nonlinear: None,
+            nonlinear_init: None,
             conditioning: Conditioning::DifferencedOutput,
             y_unit: 1.0,
             u_full_scale: 1.0,
@@ -153,6 +165,10 @@ pub struct ReplaySummary {
     pub flags: std::collections::BTreeMap<String, usize>,
     /// Lateness statistics (paced replays only).
     pub deadline: Option<Deadlines>,
+    /// Largest |u_c|, |y_c|, |Δy_c| of the conditioned data (what a nonlinear model's neurons are
+    /// initialised for).
+    #[serde(skip)]
+    pub ranges: InputRanges,
 }
 
 /// Replays `file` into `out` (created if needed).
@@ -161,14 +177,123 @@ pub struct ReplaySummary {
 /// A message naming the file and line for reader errors, the sample for boundary errors, the
 /// parameter for configuration errors, and the path for I/O errors.
 pub fn replay(file: &Path, spec: &ReplaySpec, out: &Path) -> Result<ReplaySummary, String> {
+    if let Some(structure) = spec.nonlinear {
+        return match structure.parameter_count() {
+            5 => replay_nonlinear::<5>(file, spec, out, structure),
+            6 => replay_nonlinear::<6>(file, spec, out, structure),
+            7 => replay_nonlinear::<7>(file, spec, out, structure),
+            _ => replay_nonlinear::<8>(file, spec, out, structure),
+        };
+    }
     match spec.order {
-        (1, 1) => replay_n::<2>(file, spec, out),
-        (1, 2) | (2, 1) => replay_n::<3>(file, spec, out),
-        (2, 2) => replay_n::<4>(file, spec, out),
+        (1, 1) => replay_linear::<2>(file, spec, out),
+        (1, 2) | (2, 1) => replay_linear::<3>(file, spec, out),
+        (2, 2) => replay_linear::<4>(file, spec, out),
         (na, nb) => Err(format!(
             "order na = {na}, nb = {nb}: supported are 1,1 / 1,2 / 2,1 / 2,2"
         )),
     }
+}
+
+/// The float64 twin run beside the fixed-point path, and the simulation its final θ is scored by.
+trait Reference<const N: usize> {
+    fn step(&mut self, y: f64, u: f64);
+    fn theta(&self) -> Vec<f64>;
+    /// The model at `theta` simulated from rest on `u`.
+    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64>;
+}
+
+struct LinearReference<const N: usize> {
+    model: LinearF64<N>,
+    na: usize,
+}
+
+impl<const N: usize> Reference<N> for LinearReference<N> {
+    fn step(&mut self, y: f64, u: f64) {
+        self.model.step(y, u);
+    }
+    fn theta(&self) -> Vec<f64> {
+        self.model.theta().to_vec()
+    }
+    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64> {
+        simulate(theta, u, self.na, 1)
+    }
+}
+
+struct NonlinearReference<const N: usize> {
+    model: NonlinearF64<N>,
+    structure: NonlinearStructure,
+}
+
+impl<const N: usize> Reference<N> for NonlinearReference<N> {
+    fn step(&mut self, y: f64, u: f64) {
+        let _ = self.model.step_forced(y, u, None);
+    }
+    fn theta(&self) -> Vec<f64> {
+        self.model.theta().to_vec()
+    }
+    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64> {
+        nl64::simulate(self.structure, theta, u)
+    }
+}
+
+fn replay_linear<const N: usize>(
+    file: &Path,
+    spec: &ReplaySpec,
+    out: &Path,
+) -> Result<ReplaySummary, String> {
+    let mut model = LinearDesign::<N>::new(spec.structure, spec.order.0, spec.order.1);
+    model.rls = spec.rls;
+    let reference = LinearReference {
+        model: LinearF64::new(&model),
+        na: spec.order.0,
+    };
+    let label = format!(
+        "{:?}({},{}) conditioning {:?}",
+        spec.structure, spec.order.0, spec.order.1, spec.conditioning
+    );
+    replay_model(file, spec, out, model, reference, label)
+}
+
+fn replay_nonlinear<const N: usize>(
+    file: &Path,
+    spec: &ReplaySpec,
+    out: &Path,
+    structure: NonlinearStructure,
+) -> Result<ReplaySummary, String> {
+    let na = structure.na();
+    let (linear, ranges) = match &spec.nonlinear_init {
+        Some(l) => (l.clone(), None),
+        None => {
+            let mut first = spec.clone();
+            first.nonlinear = None;
+            first.structure = Structure::OutputErrorPredictionError;
+            first.order = (na, na);
+            first.rate = Rate::Max;
+            first.progress = false;
+            let dir = out.join("linear-init");
+            let s = replay(file, &first, &dir)?;
+            (s.theta, Some(s.ranges))
+        }
+    };
+    let ranges = ranges.unwrap_or(InputRanges {
+        u: 1.0,
+        y: 10.0,
+        dy: 1.0,
+    });
+    let mut model = NonlinearDesign::<N>::from_linear(structure, &linear, ranges);
+    model.rls = spec.rls;
+    let reference = NonlinearReference {
+        model: NonlinearF64::new(&model),
+        structure,
+    };
+    let label = format!(
+        "{} from OE{na} {:?}, conditioning {:?}",
+        structure.name(),
+        linear,
+        spec.conditioning
+    );
+    replay_model(file, spec, out, model, reference, label)
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
@@ -179,13 +304,14 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[i.min(sorted.len() - 1)]
 }
 
-fn replay_n<const N: usize>(
+fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
     file: &Path,
     spec: &ReplaySpec,
     out: &Path,
+    model: D,
+    mut reference: R,
+    label: String,
 ) -> Result<ReplaySummary, String> {
-    let mut model = LinearDesign::<N>::new(spec.structure, spec.order.0, spec.order.1);
-    model.rls = spec.rls;
     let mut design = IdentifierDesign::new(spec.conditioning, model);
     design.stuck_sensor = spec.stuck_sensor;
     let mut injector = Injector::new(spec.faults.clone());
@@ -222,7 +348,6 @@ fn replay_n<const N: usize>(
     .map_err(|e| e.to_string())?;
 
     let mut st = cfg.new_state();
-    let mut reference = LinearF64::new(&design.model);
     let (mut ys, mut us) = (Vec::new(), Vec::new());
     let mut counts = [0usize; Status::NAMES.len()];
     // The reader streams, so the length is unknown: a counter, on terminals only.
@@ -331,9 +456,20 @@ fn replay_n<const N: usize>(
         .join()
         .map_err(|_| "trace writer panicked".to_owned())?
         .map_err(|e| format!("{}: {e}", trace_path.display()))?;
-    let theta: Vec<f64> = st.model().theta().iter().map(|p| p.to_f64()).collect();
-    let theta_f64 = reference.theta().to_vec();
-    let na = spec.order.0;
+    let theta: Vec<f64> = cfg
+        .model()
+        .theta(st.model())
+        .iter()
+        .map(|p| p.to_f64())
+        .collect();
+    let theta_f64 = reference.theta();
+    let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let dy: Vec<f64> = ys.windows(2).map(|w| w[1] - w[0]).collect();
+    let ranges = InputRanges {
+        u: max_abs(&us).max(1e-3),
+        y: max_abs(&ys).max(1.0),
+        dy: max_abs(&dy).max(1.0),
+    };
     let deadline = period.map(|_| {
         let mut sorted = lateness_us.clone();
         sorted.sort_by(f64::total_cmp);
@@ -353,13 +489,11 @@ fn replay_n<const N: usize>(
             Rate::Paced(f) => format!("{f}"),
         },
         wall_s,
-        model: format!(
-            "{:?}({},{}) conditioning {:?}",
-            spec.structure, spec.order.0, spec.order.1, spec.conditioning
-        ),
+        model: label,
         theta_rel_err: relative_distance(&theta, &theta_f64),
-        sim_rms: rms_error(&simulate(&theta, &us, na, 1), &ys),
-        sim_rms_f64: rms_error(&simulate(&theta_f64, &us, na, 1), &ys),
+        sim_rms: rms_error(&reference.simulate(&theta, &us), &ys),
+        sim_rms_f64: rms_error(&reference.simulate(&theta_f64, &us), &ys),
+        ranges,
         theta,
         theta_f64,
         flags: Status::NAMES
