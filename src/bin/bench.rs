@@ -12,6 +12,9 @@ use sledid::decimate::{DecimatorConfig, DecimatorState};
 use sledid::fixed::{ParamI12F20, SignalI16F16};
 use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
 use sledid::neuron::{HiddenLayer, HiddenLayerDesign, NeuronDesign};
+use sledid::nonlinear::{
+    InputRanges, NonlinearConfig, NonlinearDesign, NonlinearState, NonlinearStructure,
+};
 use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
 
 /// Length of the input tables (calls cycle through them).
@@ -201,12 +204,55 @@ impl PidBench {
     }
 }
 
+/// One full step of one of the paper's nonlinear models (simulation, sensitivities, RLS update with
+/// N parameters, projection), from a fitted-looking θ (w ≠ 0: every derivative is non-trivial).
+pub struct NonlinearBench<const N: usize> {
+    config: NonlinearConfig<N>,
+    state: NonlinearState<N>,
+}
+
+impl<const N: usize> NonlinearBench<N> {
+    /// Builds the scenario for `structure` (N must be its parameter count).
+    pub fn new(structure: NonlinearStructure) -> Option<Self> {
+        let linear: &[f64] = if structure.na() == 2 {
+            &[-1.5, 0.6, 0.5, 0.2]
+        } else {
+            &[-0.9, 0.5]
+        };
+        let ranges = InputRanges {
+            u: 0.5,
+            y: 3.0,
+            dy: 1.0,
+        };
+        let mut d = NonlinearDesign::<N>::from_linear(structure, linear, ranges);
+        // Neuron output weights off zero.
+        let first_w = 2 * structure.na();
+        if let Some(w) = d.theta0.get_mut(first_w) {
+            *w = 0.7;
+        }
+        d.rls = rls_design();
+        let config = d.build().ok()?;
+        let state = config.new_state();
+        Some(Self { config, state })
+    }
+
+    /// Call `i`.
+    pub fn call(&mut self, i: u32) -> u32 {
+        self.config
+            .step(&mut self.state, at(&Y_TABLE, i), at(&U_TABLE, i))
+            .status
+            .bits()
+            .into()
+    }
+}
+
 #[cfg(target_os = "none")]
 mod target {
-    use super::{ArxBench, DecimateBench, NeuronBench, PidBench, RlsBench};
+    use super::{ArxBench, DecimateBench, NeuronBench, NonlinearBench, PidBench, RlsBench};
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
+    use sledid::nonlinear::NonlinearStructure;
 
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
@@ -214,6 +260,11 @@ mod target {
     static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
     static DECIMATE: Mutex<RefCell<Option<DecimateBench>>> = Mutex::new(RefCell::new(None));
     static PID: Mutex<RefCell<Option<PidBench>>> = Mutex::new(RefCell::new(None));
+    static HAMMERSTEIN: Mutex<RefCell<Option<NonlinearBench<8>>>> = Mutex::new(RefCell::new(None));
+    static NOE: Mutex<RefCell<Option<NonlinearBench<6>>>> = Mutex::new(RefCell::new(None));
+    static NOE221: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
+    static WIENER: Mutex<RefCell<Option<NonlinearBench<5>>>> = Mutex::new(RefCell::new(None));
+    static FRICTION: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -225,6 +276,20 @@ mod target {
             NEURON.borrow(cs).replace(NeuronBench::new());
             DECIMATE.borrow(cs).replace(DecimateBench::new());
             PID.borrow(cs).replace(PidBench::new());
+            HAMMERSTEIN
+                .borrow(cs)
+                .replace(NonlinearBench::new(NonlinearStructure::Hammerstein));
+            NOE.borrow(cs)
+                .replace(NonlinearBench::new(NonlinearStructure::NoeOutputInput));
+            NOE221
+                .borrow(cs)
+                .replace(NonlinearBench::new(NonlinearStructure::Noe221));
+            WIENER
+                .borrow(cs)
+                .replace(NonlinearBench::new(NonlinearStructure::Wiener));
+            FRICTION
+                .borrow(cs)
+                .replace(NonlinearBench::new(NonlinearStructure::FrictionFeedback));
         });
     }
 
@@ -306,9 +371,45 @@ mod target {
         })
     }
 
+    /// A `bench_*` entry point running one call of the scenario in `$cell`.
+    macro_rules! nonlinear_entry {
+        ($(#[$doc:meta])* $name:ident, $cell:ident) => {
+            $(#[$doc])*
+            #[unsafe(no_mangle)]
+            pub extern "C" fn $name(i: u32) -> u32 {
+                critical_section::with(|cs| $cell.borrow(cs).borrow_mut().as_mut().map_or(0, |b| b.call(i)))
+            }
+        };
+    }
+    nonlinear_entry!(
+        /// One eq. 5 Hammerstein step (N = 8).
+        bench_hammerstein_step,
+        HAMMERSTEIN
+    );
+    nonlinear_entry!(
+        /// One eq. 6 NOE step (N = 6).
+        bench_noe_step,
+        NOE
+    );
+    nonlinear_entry!(
+        /// One eq. 7 NOE 221 step (N = 7).
+        bench_noe221_step,
+        NOE221
+    );
+    nonlinear_entry!(
+        /// One first-order Wiener step (N = 5).
+        bench_wiener_step,
+        WIENER
+    );
+    nonlinear_entry!(
+        /// One friction-feedback step (N = 7).
+        bench_friction_step,
+        FRICTION
+    );
+
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 7] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 12] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
@@ -316,6 +417,11 @@ mod target {
         bench_neuron_eval,
         bench_decimate_push,
         bench_pid_step,
+        bench_hammerstein_step,
+        bench_noe_step,
+        bench_noe221_step,
+        bench_wiener_step,
+        bench_friction_step,
     ];
 
     #[entry]
@@ -361,6 +467,20 @@ fn main() {
             d_acc = d_acc.wrapping_add(db.call(i));
         }
         println!("neuron checksum = {n_acc:#x}, decimate checksum = {d_acc:#x}");
+    }
+    for s in NonlinearStructure::ALL {
+        let acc =
+            match s.parameter_count() {
+                5 => NonlinearBench::<5>::new(s)
+                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
+                6 => NonlinearBench::<6>::new(s)
+                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
+                7 => NonlinearBench::<7>::new(s)
+                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
+                _ => NonlinearBench::<8>::new(s)
+                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
+            };
+        println!("{} flags = {acc:?}", s.name());
     }
     if let Some(mut pb) = PidBench::new() {
         let p_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(pb.call(i)));

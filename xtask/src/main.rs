@@ -88,7 +88,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 7] = [
+const BENCH_FNS: [&str; 12] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
@@ -96,6 +96,11 @@ const BENCH_FNS: [&str; 7] = [
     "bench_neuron_eval",
     "bench_decimate_push",
     "bench_pid_step",
+    "bench_hammerstein_step",
+    "bench_noe_step",
+    "bench_noe221_step",
+    "bench_wiener_step",
+    "bench_friction_step",
 ];
 
 fn cost() -> bool {
