@@ -1,12 +1,14 @@
-//! The per-sample `step` with an arbitrary (valid) configuration and arbitrary raw samples: no panic,
-//! no overflow (overflow checks are on), P stays positive definite.
+//! The per-sample `step` with an arbitrary (valid) configuration — any linear or nonlinear model —
+//! and arbitrary raw samples: no panic, no overflow (overflow checks are on), P stays positive definite.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use sledid::boundary::{PositionI48F16, Sample};
 use sledid::conditioning::Conditioning;
 use sledid::fixed::SignalI16F16;
+use sledid::estimator::{Estimator, EstimatorDesign};
 use sledid::linear::{LinearDesign, Structure};
+use sledid::nonlinear::{NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::step::{IdentifierDesign, StuckSensorDesign, reject, step};
 
@@ -41,8 +43,34 @@ fn run<const N: usize>(b: &mut Bytes, na: usize, nb: usize) {
         2 => Conditioning::Differenced,
         _ => Conditioning::DifferencedOutput,
     };
+    let rls = rls_design(b);
+    let mut model = LinearDesign::<N>::new(structure, na, nb);
+    model.rls = rls;
+    drive(b, conditioning, model);
+}
+
+/// One of the paper's nonlinear models from arbitrary (possibly saturating) initial parameters.
+fn run_nonlinear<const N: usize>(b: &mut Bytes, structure: NonlinearStructure) {
+    let conditioning = match b.u8() % 3 {
+        0 => Conditioning::None,
+        1 => Conditioning::CentredOnReference,
+        _ => Conditioning::DifferencedOutput,
+    };
+    let mut theta0 = [0.0; N];
+    for t in theta0.iter_mut() {
+        *t = (b.unit() - 0.5) * 4000.0;
+    }
+    theta0[0] = b.unit() * 1.98 - 0.99;
+    if structure.na() == 2 {
+        theta0[1] = 0.0;
+    }
+    let model = NonlinearDesign { structure, theta0, rls: rls_design(b), stability_margin: 0.0 };
+    drive(b, conditioning, model);
+}
+
+fn rls_design(b: &mut Bytes) -> RlsDesign {
     let dead_zone = b.unit() * 4.0;
-    let rls = RlsDesign {
+    RlsDesign {
         lambda: 0.5 + 0.5 * b.unit(),
         p0: 10f64.powf(-6.0 + 14.0 * b.unit()),
         dead_zone,
@@ -55,9 +83,11 @@ fn run<const N: usize>(b: &mut Bytes, na: usize, nb: usize) {
         },
         outlier_threshold: if b.u8() % 2 == 0 { 0.0 } else { dead_zone + 0.1 + 100.0 * b.unit() },
         outlier_limit: u16::from(b.u8()),
-    };
-    let mut model = LinearDesign::<N>::new(structure, na, nb);
-    model.rls = rls;
+    }
+}
+
+/// The shared step on the rest of the bytes.
+fn drive<const N: usize, D: EstimatorDesign<N>>(b: &mut Bytes, conditioning: Conditioning, model: D) {
     let mut design = IdentifierDesign::new(conditioning, model);
     if b.u8() % 2 == 1 {
         design.stuck_sensor = Some(StuckSensorDesign { samples: 2 + u32::from(b.u8()), min_drive: 0.01 + b.unit() });
@@ -75,16 +105,21 @@ fn run<const N: usize>(b: &mut Bytes, na: usize, nb: usize) {
             r: PositionI48F16::from_raw(i64::from_le_bytes(b.take())),
         };
         let out = step(&cfg, &mut st, &s);
-        assert_eq!(out.theta, *st.model().theta());
-        assert!(st.model().rls().d().iter().all(|d| !d.is_zero()), "P lost positive definiteness");
+        assert_eq!(out.theta, *cfg.model().theta(st.model()));
+        assert!(cfg.model().rls(st.model()).d().iter().all(|d| !d.is_zero()), "P lost positive definiteness");
     }
 }
 
 fuzz_target!(|data: &[u8]| {
     let mut b = Bytes(data);
-    match b.u8() % 3 {
+    match b.u8() % 8 {
         0 => run::<2>(&mut b, 1, 1),
         1 => run::<3>(&mut b, 2, 1),
-        _ => run::<4>(&mut b, 2, 2),
+        2 => run::<4>(&mut b, 2, 2),
+        3 => run_nonlinear::<8>(&mut b, NonlinearStructure::Hammerstein),
+        4 => run_nonlinear::<6>(&mut b, NonlinearStructure::NoeOutputInput),
+        5 => run_nonlinear::<7>(&mut b, NonlinearStructure::Noe221),
+        6 => run_nonlinear::<5>(&mut b, NonlinearStructure::Wiener),
+        _ => run_nonlinear::<7>(&mut b, NonlinearStructure::FrictionFeedback),
     }
 });

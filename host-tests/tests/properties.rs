@@ -152,6 +152,30 @@ proptest! {
     }
 
     #[test]
+    fn nonlinear_step_accepts_any_raw_sample(
+        d in design(),
+        which in 0usize..5,
+        // Any θ₀ (the stable-denominator check aside): saturated neurons, huge weights.
+        theta in prop::collection::vec(-2000.0f64..2000.0, 8),
+        f1 in -0.99f64..0.99,
+        conditioning in prop_oneof![
+            Just(Conditioning::None),
+            Just(Conditioning::CentredOnReference),
+            Just(Conditioning::DifferencedOutput)
+        ],
+        samples in prop::collection::vec((any::<i64>(), signal(), any::<i64>()), 1..200),
+    ) {
+        use sledid::nonlinear::NonlinearStructure;
+        let structure = NonlinearStructure::ALL[which];
+        match structure.parameter_count() {
+            5 => run_nonlinear::<5>(structure, d, &theta, f1, conditioning, &samples)?,
+            6 => run_nonlinear::<6>(structure, d, &theta, f1, conditioning, &samples)?,
+            7 => run_nonlinear::<7>(structure, d, &theta, f1, conditioning, &samples)?,
+            _ => run_nonlinear::<8>(structure, d, &theta, f1, conditioning, &samples)?,
+        }
+    }
+
+    #[test]
     fn dyadic_arithmetic_tracks_f64(a in 1e-30f64..1e30, b in 1e-30f64..1e30) {
         let (da, db) = (Dyadic::from_f64(a).unwrap(), Dyadic::from_f64(b).unwrap());
         let rel = |x: f64, y: f64| ((x - y) / y).abs();
@@ -162,4 +186,52 @@ proptest! {
         prop_assert!(rel(da.add_trunc(db).to_f64(), ra + rb) < 2f64.powi(-30));
         prop_assert!(rel(da.recip().to_f64(), 1.0 / ra) < 2f64.powi(-30));
     }
+}
+
+/// A nonlinear estimator through the shared step on any samples: no panic, P positive definite,
+/// the linear denominator inside the unit circle after every sample.
+fn run_nonlinear<const N: usize>(
+    structure: sledid::nonlinear::NonlinearStructure,
+    d: RlsDesign,
+    theta: &[f64],
+    f1: f64,
+    conditioning: Conditioning,
+    samples: &[(i64, i32, i64)],
+) -> Result<(), TestCaseError> {
+    use sledid::nonlinear::NonlinearDesign;
+    let mut theta0 = [0.0; N];
+    theta0.copy_from_slice(&theta[..N]);
+    // A stable denominator: f₁ only (f₂ = 0 for second-order structures).
+    theta0[0] = f1;
+    if structure.na() == 2 {
+        theta0[1] = 0.0;
+    }
+    let model = NonlinearDesign {
+        structure,
+        theta0,
+        rls: d,
+        stability_margin: 0.0,
+    };
+    let cfg = IdentifierDesign::new(conditioning, model).build().unwrap();
+    let mut st = cfg.new_state();
+    let one = 1i64 << 20;
+    for &(y, u, r) in samples {
+        let s = Sample {
+            y: PositionI48F16::from_raw(y),
+            u: SignalI16F16::from_raw(u),
+            r: PositionI48F16::from_raw(r),
+        };
+        let out = step(&cfg, &mut st, &s);
+        prop_assert_eq!(out.theta, *st.model().theta());
+        prop_assert!(st.model().rls().d().iter().all(|d| !d.is_zero()));
+        let f = out.theta;
+        let stable = if structure.na() == 1 {
+            i64::from(f[0].raw()).abs() <= one
+        } else {
+            let (f1, f2) = (i64::from(f[0].raw()), i64::from(f[1].raw()));
+            f2.abs() <= one && (f1.abs() << 20) <= (one << 20) + f2 * one
+        };
+        prop_assert!(stable, "denominator left the unit circle: {:?}", &f[..2]);
+    }
+    Ok(())
 }
