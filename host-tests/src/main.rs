@@ -440,6 +440,10 @@ struct StudyArgs {
     /// final-reference, mean-reference, last-output, none.
     #[arg(long, default_value = "auto")]
     centre: sledid_host::study::Centring,
+    /// Ridge δ of the nonlinear fits: δ‖θ − θ₀‖² added to the simulation SSE (0: the paper's
+    /// criterion); pulls the neurons toward the linear start on short records.
+    #[arg(long, default_value_t = 0.0)]
+    ridge: f64,
     /// Output directory: study.json, fig*.png (and twin.csv with `--twin`).
     #[arg(long, default_value = "out/study")]
     out: PathBuf,
@@ -449,6 +453,7 @@ fn study_cmd(a: &StudyArgs) -> Result<(), String> {
     use sledid_host::study::{self, StudyInput, StudyOptions};
     let options = StudyOptions {
         centring: a.centre,
+        nonlinear_ridge: a.ridge,
         ..StudyOptions::default()
     };
     let study = match (&a.file, &a.columns, a.ident, a.valid) {

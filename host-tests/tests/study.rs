@@ -300,7 +300,7 @@ fn study_json_has_every_key() {
             assert_eq!(m["zeros"].as_array().unwrap().len(), order - 1);
         }
     }
-    assert_eq!(json["plots"].as_array().unwrap().len(), 5);
+    assert_eq!(json["plots"].as_array().unwrap().len(), 8);
 }
 
 #[test]
@@ -310,13 +310,16 @@ fn plots_are_written() {
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "png"))
         .collect();
-    assert_eq!(pngs.len(), 5);
+    assert_eq!(pngs.len(), 8);
     for name in [
         "fig5_ident_data.png",
         "fig6_simulation.png",
         "fig7_xcorr.png",
         "fig8_criterion.png",
         "fig11b_poles_zeros.png",
+        "fig13_nonlinear_simulation.png",
+        "fig13b_15_17b_static_maps.png",
+        "fig18_nonlinear_xcorr.png",
     ] {
         let path: &Path = &dir.join(name);
         let bytes = std::fs::read(path).unwrap();
