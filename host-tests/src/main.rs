@@ -381,7 +381,7 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     );
 
     // The paper's study on the same twin: ~100 settling samples of one seek to identify, of the next
-    // to validate, every linear model at Ts and after ÷2, with the paper's figures beside them.
+    // to validate, every linear and nonlinear model at Ts and after ÷2, the paper's figures beside.
     let study_dir = out.join("study");
     let mut study = sledid_host::study::protocol::run_twin(
         seed,
@@ -395,6 +395,9 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     println!();
     println!("{}", study.header());
     println!("{}", study.table());
+    for note in &study.notes {
+        println!("note: {note}");
+    }
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     println!("plots: {}", names.join(", "));
     Ok(())

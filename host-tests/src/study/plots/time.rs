@@ -115,6 +115,9 @@ fn rms_label(m: &ModelReport) -> String {
     }
 }
 
+/// Samples drawn of a simulation panel.
+pub(super) const SIM_WINDOW: usize = 400;
+
 /// Fig. 6 / 10 / 11a: simulation on validation data, one panel per model.
 pub(super) fn simulation_panels(area: &Area, rate: &RateReport) -> Drawn {
     let panels = area.split_evenly((1, rate.models.len()));
@@ -126,11 +129,20 @@ pub(super) fn simulation_panels(area: &Area, rate: &RateReport) -> Drawn {
 }
 
 /// One simulation panel: measured y (black) and `sim` (red) over the validation segment `d`.
+/// Long segments show only their first [`SIM_WINDOW`] samples (the RMS in the title is over
+/// the whole segment; the legend says so).
 pub(super) fn sim_panel(panel: &Area, d: &Dataset, title: String, sim: &[f64]) -> Drawn {
-    let (t, t_label) = time_axis(d.y.len(), d.ts_s);
+    let n = d.y.len().min(SIM_WINDOW);
+    let (y_all, sim) = (&d.y[..n], &sim[..n.min(sim.len())]);
+    let measured = if n < d.y.len() {
+        format!("measured (first {n} of {})", d.y.len())
+    } else {
+        "measured".to_owned()
+    };
+    let (t, t_label) = time_axis(n, d.ts_s);
     let t1 = t.last().copied().unwrap_or(1.0);
     // Scale to the data; a diverging simulation is clipped at 3× the data's span.
-    let (y0, y1) = range(d.y.iter().copied(), 0.15);
+    let (y0, y1) = range(y_all.iter().copied(), 0.15);
     let span = (y1 - y0).max(2.0);
     let (s0, s1) = range(sim.iter().copied(), 0.05);
     let (lo, hi) = (s0.max(y0 - span).min(y0), s1.min(y1 + span).max(y1));
@@ -150,10 +162,10 @@ pub(super) fn sim_panel(panel: &Area, d: &Dataset, title: String, sim: &[f64]) -
         .draw()?;
     let clip = |v: f64| v.clamp(lo, hi);
     c.draw_series(LineSeries::new(
-        t.iter().copied().zip(d.y.iter().copied()),
+        t.iter().copied().zip(y_all.iter().copied()),
         MEASURED.stroke_width(2),
     ))?
-    .label("measured")
+    .label(measured)
     .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MEASURED));
     c.draw_series(LineSeries::new(
         t.iter().copied().zip(sim.iter().map(|&v| clip(v))),
