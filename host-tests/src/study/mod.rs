@@ -1,5 +1,4 @@
-//! `sledid study`: the paper's linear identification procedure (Sections 3–4) on any recording,
-//! in f64.
+//! `sledid study`: the paper's identification procedure (Sections 3–5) on any recording, in f64.
 //!
 //! # Procedure
 //! 1. Signals as in the paper: y in sensor quanta (`y / y_unit`), u in volts (`u · u_scale`).
@@ -17,6 +16,9 @@
 //!    second sample; decimated sample m stands for input sample `2m + 1 − 11` (the filter's
 //!    group delay), which is how A:B maps to the decimated segment (≈ (B − A)/2 samples). The
 //!    filter has unit DC gain, so the segment is centred with the same value as at Ts.
+//! 6. At both rates, every nonlinear structure of Section 5 (eq. 5, 6, 7, Wiener, friction
+//!    feedback) by Levenberg–Marquardt from its linear OE model, with over-fitting flags
+//!    ([`nonlinear`]).
 //!
 //! # Centring ([`Centring`])
 //! The paper studies the end of a step, around a constant reference; the models have no offset,

@@ -1,5 +1,5 @@
 //! The paper's nonlinear models (Section 5) in the study: every [`NonlinearStructure`] fitted by
-//! [`nonlinear_batch::fit`] (Levenberg–Marquardt on the simulation error), started from the
+//! `nonlinear_batch::`[`fit`] (Levenberg–Marquardt on the simulation error), started from the
 //! matching linear OE model of the same rate as the paper does (w = 0, so the start *is* the OE
 //! model and LM can only lower the identification SSE):
 //!
