@@ -399,7 +399,7 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     );
 
     // The paper's study on the same twin: ~100 settling samples of one seek to identify, of the next
-    // to validate, every linear model at Ts and after ÷2, with the paper's figures beside them.
+    // to validate, every linear and nonlinear model at Ts and after ÷2, the paper's figures beside.
     let study_dir = out.join("study");
     let mut study = sledid_host::study::protocol::run_twin(
         seed,
@@ -413,6 +413,9 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     println!();
     println!("{}", study.header());
     println!("{}", study.table());
+    for note in &study.notes {
+        println!("note: {note}");
+    }
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     println!("plots: {}", names.join(", "));
     Ok(())
@@ -458,6 +461,10 @@ struct StudyArgs {
     /// final-reference, mean-reference, last-output, none.
     #[arg(long, default_value = "auto")]
     centre: sledid_host::study::Centring,
+    /// Ridge δ of the nonlinear fits: δ‖θ − θ₀‖² added to the simulation SSE (0: the paper's
+    /// criterion); pulls the neurons toward the linear start on short records.
+    #[arg(long, default_value_t = 0.0)]
+    ridge: f64,
     /// Output directory: study.json, fig*.png (and twin.csv with `--twin`).
     #[arg(long, default_value = "out/study")]
     out: PathBuf,
@@ -467,6 +474,7 @@ fn study_cmd(a: &StudyArgs) -> Result<(), String> {
     use sledid_host::study::{self, StudyInput, StudyOptions};
     let options = StudyOptions {
         centring: a.centre,
+        nonlinear_ridge: a.ridge,
         ..StudyOptions::default()
     };
     let study = match (&a.file, &a.columns, a.ident, a.valid) {

@@ -300,7 +300,53 @@ fn study_json_has_every_key() {
             assert_eq!(m["zeros"].as_array().unwrap().len(), order - 1);
         }
     }
-    assert_eq!(json["plots"].as_array().unwrap().len(), 5);
+    for rate in ["at_ts", "decimated_by_2"] {
+        let models = json[rate]["nonlinear"].as_array().unwrap();
+        let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
+        assert_eq!(
+            names,
+            [
+                "NOE-Hammerstein1",
+                "NOE1-yu",
+                "NOE221",
+                "Wiener1",
+                "Friction2"
+            ]
+        );
+        for m in models {
+            for key in [
+                "linear_counterpart",
+                "parameters",
+                "theta",
+                "theta0",
+                "poles",
+                "zeros",
+                "n_params",
+                "samples_ident",
+                "samples_per_param",
+                "overfit_risk",
+                "overfit_evidence",
+                "fpe",
+                "rms_sim_ident",
+                "rms_sim_valid",
+                "linear_rms_sim_valid",
+                "change_vs_linear_valid",
+                "paper_change_vs_linear",
+                "fit",
+                "xcorr_valid",
+                "static_map",
+            ] {
+                assert!(m.get(key).is_some(), "{rate} {}: missing {key}", m["name"]);
+            }
+            let d = m["n_params"].as_u64().unwrap() as usize;
+            assert_eq!(m["theta"].as_array().unwrap().len(), d);
+            assert_eq!(m["parameters"].as_object().unwrap().len(), d);
+            for key in ["iterations", "converged", "sse_init", "sse_final", "ridge"] {
+                assert!(m["fit"].get(key).is_some(), "fit {key}");
+            }
+        }
+    }
+    assert_eq!(json["plots"].as_array().unwrap().len(), 8);
 }
 
 #[test]
@@ -310,13 +356,16 @@ fn plots_are_written() {
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "png"))
         .collect();
-    assert_eq!(pngs.len(), 5);
+    assert_eq!(pngs.len(), 8);
     for name in [
         "fig5_ident_data.png",
         "fig6_simulation.png",
         "fig7_xcorr.png",
         "fig8_criterion.png",
         "fig11b_poles_zeros.png",
+        "fig13_nonlinear_simulation.png",
+        "fig13b_15_17b_static_maps.png",
+        "fig18_nonlinear_xcorr.png",
     ] {
         let path: &Path = &dir.join(name);
         let bytes = std::fs::read(path).unwrap();

@@ -1,5 +1,4 @@
-//! `sledid study`: the paper's linear identification procedure (Sections 3–4) on any recording,
-//! in f64.
+//! `sledid study`: the paper's identification procedure (Sections 3–5) on any recording, in f64.
 //!
 //! # Procedure
 //! 1. Signals as in the paper: y in sensor quanta (`y / y_unit`), u in volts (`u · u_scale`).
@@ -17,6 +16,9 @@
 //!    second sample; decimated sample m stands for input sample `2m + 1 − 11` (the filter's
 //!    group delay), which is how A:B maps to the decimated segment (≈ (B − A)/2 samples). The
 //!    filter has unit DC gain, so the segment is centred with the same value as at Ts.
+//! 6. At both rates, every nonlinear structure of Section 5 (eq. 5, 6, 7, Wiener, friction
+//!    feedback) by Levenberg–Marquardt from its linear OE model, with over-fitting flags
+//!    ([`nonlinear`]).
 //!
 //! # Centring ([`Centring`])
 //! The paper studies the end of a step, around a constant reference; the models have no offset,
@@ -38,9 +40,11 @@
 pub mod analysis;
 pub mod data;
 pub mod models;
+pub mod nonlinear;
 pub mod plots;
 pub mod protocol;
 pub mod report;
+pub mod table;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -152,6 +156,9 @@ pub struct StudyOptions {
     pub surface_grid: usize,
     /// Largest |τ| of the cross-correlation, samples.
     pub xcorr_lags: usize,
+    /// Ridge δ of the nonlinear fits, `δ‖θ − θ₀‖²` added to the simulation SSE (0: the paper's
+    /// criterion); see [`nonlinear`].
+    pub nonlinear_ridge: f64,
 }
 
 impl Default for StudyOptions {
@@ -160,6 +167,7 @@ impl Default for StudyOptions {
             centring: Centring::Auto,
             surface_grid: 61,
             xcorr_lags: 20,
+            nonlinear_ridge: 0.0,
         }
     }
 }
@@ -259,6 +267,13 @@ pub fn run(
             requirement: "positive",
         });
     }
+    if !(options.nonlinear_ridge.is_finite() && options.nonlinear_ridge >= 0.0) {
+        return Err(StudyError::InvalidParameter {
+            name: "--ridge",
+            value: options.nonlinear_ridge,
+            requirement: "finite and ≥ 0",
+        });
+    }
     let (ci, how) = ident.centre(ident_seg, options.centring);
     let (cv, _) = valid.centre(valid_seg, options.centring);
     let at_ts = report::rate_report(
@@ -321,6 +336,23 @@ pub fn run(
                 "the {name} segment starts at sample {}: the ÷2 filter has less than its 23 samples \
                  of history there, so the first decimated samples carry its start-up transient",
                 seg.start
+            ));
+        }
+    }
+    for rate in [&at_ts, &dec] {
+        notes.extend(rate.notes.iter().cloned());
+        for m in rate.nonlinear.iter().filter(|m| m.overfit_evidence) {
+            notes.push(format!(
+                "{} at {}: lower identification RMS than {} ({:.3} vs {:.3}) but higher validation \
+                 RMS ({:.3} vs {:.3}): over-fitting ({:.1} samples per parameter)",
+                m.name,
+                rate.label,
+                m.linear_counterpart,
+                m.rms_sim_ident,
+                m.linear_rms_sim_ident,
+                m.rms_sim_valid,
+                m.linear_rms_sim_valid,
+                m.samples_per_param
             ));
         }
     }

@@ -2,7 +2,6 @@
 
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
 use super::analysis::{
     CriterionSurfaces, CrossCorrelation, Periodogram, criterion_surfaces, cross_correlation,
@@ -11,6 +10,7 @@ use super::analysis::{
 use super::models::{
     LinearModel, ModelSpec, OeInit, Structure, fit_arx, fit_oe, rms_from, sse_from,
 };
+use super::nonlinear::{NonlinearReport, fit_all};
 use super::plots::PlotInfo;
 use super::protocol::TwinProtocol;
 use super::{
@@ -180,6 +180,11 @@ pub struct RateReport {
     pub centre_valid_q: f64,
     /// ARX1, ARX2, OE1, OE2.
     pub models: Vec<ModelReport>,
+    /// Every nonlinear structure, each started from its linear OE counterpart above.
+    pub nonlinear: Vec<NonlinearReport>,
+    /// Caveats of this rate's fits.
+    #[serde(skip)]
+    pub notes: Vec<String>,
     /// V_N over (pole, b1) of ARX1 and OE1 on the identification segment (Fig. 8).
     pub criterion_surfaces: CriterionSurfaces,
     /// The identification segment (for the plots).
@@ -194,9 +199,14 @@ pub struct RateReport {
 }
 
 impl RateReport {
-    /// The model called `name`.
+    /// The linear model called `name`.
     pub fn model(&self, name: &str) -> Option<&ModelReport> {
         self.models.iter().find(|m| m.name == name)
+    }
+
+    /// The nonlinear model called `name`.
+    pub fn nonlinear_model(&self, name: &str) -> Option<&NonlinearReport> {
+        self.nonlinear.iter().find(|m| m.name == name)
     }
 }
 
@@ -258,10 +268,11 @@ pub(super) fn rate_report(
         return Err(StudyError::Usage("first-order models missing".to_owned()));
     };
     let criterion_surfaces = criterion_surfaces(y, u, arx1, oe1, options.surface_grid);
-    let models = fitted
+    let models: Vec<ModelReport> = fitted
         .iter()
         .map(|(m, f)| ModelReport::new(m, f.clone(), ident, valid, options.xcorr_lags))
         .collect();
+    let (nonlinear, notes) = fit_all(ident, valid, &models, options, label);
     Ok(RateReport {
         label: label.to_owned(),
         ts_s: ident.ts_s,
@@ -273,6 +284,8 @@ pub(super) fn rate_report(
         centre_ident_q: ident.centre_q,
         centre_valid_q: valid.centre_q,
         models,
+        nonlinear,
+        notes,
         criterion_surfaces,
         spectra: (periodogram(u, ident.ts_s), periodogram(y, ident.ts_s)),
         ident: ident.clone(),
@@ -293,7 +306,7 @@ pub struct ReferenceFigure {
     pub paper: &'static str,
 }
 
-/// The reference figures of the four models.
+/// The reference figures of the linear and nonlinear models.
 pub fn reference_figures() -> Vec<ReferenceFigure> {
     let f = |model, ts, dec2, paper| ReferenceFigure {
         model,
@@ -320,6 +333,31 @@ pub fn reference_figures() -> Vec<ReferenceFigure> {
             Some(0.28),
             Some(0.21),
             "slightly better than the first-order models, real poles (Fig. 11)",
+        ),
+        f(
+            "NOE-Hammerstein1",
+            Some(4.77),
+            Some(0.85),
+            "eq. 5: 9 % lower validation RMS than OE1 at Ts (Fig. 13)",
+        ),
+        f("NOE1-yu", None, None, "eq. 6: similar to eq. 5"),
+        f(
+            "NOE221",
+            Some(0.48),
+            Some(1.51),
+            "eq. 7 (÷2 data): 13 % lower than OE2 (Fig. 14)",
+        ),
+        f(
+            "Wiener1",
+            Some(4.66),
+            Some(1.09),
+            "best model of the paper, after ÷2 (Fig. 17)",
+        ),
+        f(
+            "Friction2",
+            None,
+            None,
+            "the paper's proposed next step (Sec. 6)",
         ),
     ]
 }
@@ -359,93 +397,4 @@ pub struct Study {
     pub notes: Vec<String>,
     /// The plots written, with what their axes and marks mean.
     pub plots: Vec<PlotInfo>,
-}
-
-impl Study {
-    /// What was studied, in two lines.
-    pub fn header(&self) -> String {
-        let (ts, dec) = (&self.at_ts, &self.decimated_by_2);
-        format!(
-            "identification: {} {} ({} samples, ÷2: {})\n\
-             validation:     {} {} ({} samples, ÷2: {}); Ts = {:.4} ms; centring: {:?}",
-            self.ident_source,
-            self.ident_segment,
-            ts.samples_ident,
-            dec.samples_ident,
-            self.valid_source,
-            self.valid_segment,
-            ts.samples_valid,
-            dec.samples_valid,
-            self.ts_s * 1e3,
-            self.centring
-        )
-    }
-
-    /// The compact comparison table (Markdown), with footnotes.
-    pub fn table(&self) -> String {
-        let num = |x: Option<f64>| x.map_or_else(|| "–".to_owned(), |v| format!("{v:.2}"));
-        let rms = |m: &ModelReport, v: f64| {
-            let mark = if !m.stable {
-                " †"
-            } else if m.at_stability_boundary {
-                " ‡"
-            } else {
-                ""
-            };
-            if v.abs() < 1e4 {
-                format!("{v:.2}{mark}")
-            } else {
-                format!("{v:.1e}{mark}")
-            }
-        };
-        let mut t = String::from(
-            "| model | sim RMS valid, Ts | sim RMS valid, ÷2 | findings Ts | findings ÷2 \
-             | pred RMS valid, Ts | pred RMS valid, ÷2 | sim RMS ident, Ts | poles at Ts | 2n / N (Ts, ÷2) | paper |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|\n",
-        );
-        for r in &self.reference {
-            let (Some(a), Some(b)) = (
-                self.at_ts.model(r.model),
-                self.decimated_by_2.model(r.model),
-            ) else {
-                continue;
-            };
-            let poles: Vec<String> = a
-                .poles
-                .iter()
-                .filter(|p| p[1] >= 0.0)
-                .map(|p| {
-                    if p[1] == 0.0 {
-                        format!("{:.3}", p[0])
-                    } else {
-                        format!("{:.3}±{:.3}i", p[0], p[1].abs())
-                    }
-                })
-                .collect();
-            let _ = writeln!(
-                t,
-                "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {}/{}, {}/{} | {} |",
-                r.model,
-                rms(a, a.rms_sim_valid),
-                rms(b, b.rms_sim_valid),
-                num(r.findings_rms_sim_valid_ts),
-                num(r.findings_rms_sim_valid_dec2),
-                a.rms_pred_valid,
-                b.rms_pred_valid,
-                rms(a, a.rms_sim_ident),
-                poles.join(", "),
-                a.n_params,
-                a.samples_ident,
-                b.n_params,
-                b.samples_ident,
-                r.paper
-            );
-        }
-        t.push_str(
-            "\nRMS in quanta over samples 2..N of each segment. † unstable model: its simulation \
-             diverges. ‡ OE estimate on the stability constraint (a pole at |p| > 0.999). \
-             findings: shared/findings.md (float64 study of a simulated friction-dominated sled).\n",
-        );
-        t
-    }
 }

@@ -10,6 +10,9 @@
 //! | `fig7_xcorr.png` | Fig. 7, 18 | residual–input cross-correlation on the validation segment with 99 % bounds |
 //! | `fig8_criterion.png` | Fig. 8 | log10 V_N over (pole, b1) for ARX1 and OE1, both minima marked |
 //! | `fig11b_poles_zeros.png` | Fig. 11b | poles (×) and zeros (○) with the unit circle, per model |
+//! | `fig13_nonlinear_simulation.png` | Fig. 13a, 14b, 17a | measured vs simulated y on the validation segment, per nonlinear model |
+//! | `fig13b_15_17b_static_maps.png` | Fig. 13b, 15, 17b | each estimated static nonlinearity beside its linear model's |
+//! | `fig18_nonlinear_xcorr.png` | Fig. 18 | simulation residual–input cross-correlation of each nonlinear model |
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -18,6 +21,7 @@ use std::error::Error;
 use std::path::Path;
 use std::sync::OnceLock;
 
+mod nonlinear;
 mod planes;
 mod time;
 
@@ -67,7 +71,7 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
         });
     }
     type Figure = fn(&Area, &RateReport) -> Drawn;
-    let figures: [(&str, &str, &str, usize, Figure); 5] = [
+    let figures: [(&str, &str, &str, usize, Figure); 8] = [
         (
             "fig5_ident_data.png",
             "5, 9",
@@ -102,6 +106,27 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
             "poles (×) and zeros (○) of each model with the unit circle; top row Ts, bottom row 2·Ts",
             4,
             pole_zero_panels,
+        ),
+        (
+            "fig13_nonlinear_simulation.png",
+            "13a, 14b, 17a",
+            "validation segment: measured y (black) and the simulated y (red) of each nonlinear model, quanta vs time; title: validation RMS and its change against the linear start (OE1 or OE2); top row Ts, bottom row 2·Ts",
+            5,
+            nonlinear::simulation_panels,
+        ),
+        (
+            "fig13b_15_17b_static_maps.png",
+            "13b, 15, 17b",
+            "estimated static maps (red) vs the linear counterpart's (black dashed) over the identification data's range (grey verticals) ±10 %: eq. 5 and eq. 7 b1·u + g(u) vs b1·u (Fig. 13b, 15); eq. 6 b1·u + g(ŷ, u) at three ŷ(t−1) slices; Wiener x + g(x) vs x (Fig. 17b); friction g(v) of the simulated velocity; top row Ts, bottom row 2·Ts",
+            5,
+            nonlinear::map_panels,
+        ),
+        (
+            "fig18_nonlinear_xcorr.png",
+            "18",
+            "normalised cross-correlation of each nonlinear model's simulation residual (its predictor) and the input on the validation segment vs lag (samples), dashed: 99 % bounds ±2.58/√N; top row Ts, bottom row 2·Ts",
+            5,
+            nonlinear::xcorr_panels,
         ),
     ];
     let mut infos = Vec::new();

@@ -4,6 +4,8 @@
 use plotters::prelude::*;
 
 use super::{Area, Drawn, FONT, INPUT, MEASURED, MODEL, range, tick, time_axis};
+use crate::study::Dataset;
+use crate::study::analysis::CrossCorrelation;
 use crate::study::report::{ModelReport, RateReport};
 
 /// Fig. 5 / 9: time and frequency views of the identification segment.
@@ -113,116 +115,124 @@ fn rms_label(m: &ModelReport) -> String {
     }
 }
 
+/// Samples drawn of a simulation panel.
+pub(super) const SIM_WINDOW: usize = 400;
+
 /// Fig. 6 / 10 / 11a: simulation on validation data, one panel per model.
 pub(super) fn simulation_panels(area: &Area, rate: &RateReport) -> Drawn {
-    let d = &rate.valid;
-    let (t, t_label) = time_axis(d.y.len(), d.ts_s);
+    let panels = area.split_evenly((1, rate.models.len()));
+    for (panel, m) in panels.iter().zip(&rate.models) {
+        let title = format!("{} {}: sim RMS {}", m.name, rate.label, rms_label(m));
+        sim_panel(panel, &rate.valid, title, &m.sim_valid)?;
+    }
+    Ok(())
+}
+
+/// One simulation panel: measured y (black) and `sim` (red) over the validation segment `d`.
+/// Long segments show only their first [`SIM_WINDOW`] samples (the RMS in the title is over
+/// the whole segment; the legend says so).
+pub(super) fn sim_panel(panel: &Area, d: &Dataset, title: String, sim: &[f64]) -> Drawn {
+    let n = d.y.len().min(SIM_WINDOW);
+    let (y_all, sim) = (&d.y[..n], &sim[..n.min(sim.len())]);
+    let measured = if n < d.y.len() {
+        format!("measured (first {n} of {})", d.y.len())
+    } else {
+        "measured".to_owned()
+    };
+    let (t, t_label) = time_axis(n, d.ts_s);
     let t1 = t.last().copied().unwrap_or(1.0);
     // Scale to the data; a diverging simulation is clipped at 3× the data's span.
-    let (y0, y1) = range(d.y.iter().copied(), 0.15);
+    let (y0, y1) = range(y_all.iter().copied(), 0.15);
     let span = (y1 - y0).max(2.0);
-    for (panel, m) in area
-        .split_evenly((1, rate.models.len()))
-        .iter()
-        .zip(&rate.models)
-    {
-        let (s0, s1) = range(m.sim_valid.iter().copied(), 0.05);
-        let (lo, hi) = (s0.max(y0 - span).min(y0), s1.min(y1 + span).max(y1));
-        let mut c = ChartBuilder::on(panel)
-            .caption(
-                format!("{} {}: sim RMS {}", m.name, rate.label, rms_label(m)),
-                (FONT, 17),
-            )
-            .margin(8)
-            .x_label_area_size(36)
-            .y_label_area_size(46)
-            .build_cartesian_2d(0.0..t1, lo..hi)?;
-        c.configure_mesh()
-            .x_desc(t_label)
-            .x_labels(6)
-            .y_desc("y (quanta)")
-            .label_style((FONT, 13))
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .draw()?;
-        let clip = |v: f64| v.clamp(lo, hi);
-        c.draw_series(LineSeries::new(
-            t.iter().copied().zip(d.y.iter().copied()),
-            MEASURED.stroke_width(2),
-        ))?
-        .label("measured")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MEASURED));
-        c.draw_series(LineSeries::new(
-            t.iter().copied().zip(m.sim_valid.iter().map(|&v| clip(v))),
-            MODEL.stroke_width(2),
-        ))?
-        .label("simulated")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MODEL));
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
-    }
+    let (s0, s1) = range(sim.iter().copied(), 0.05);
+    let (lo, hi) = (s0.max(y0 - span).min(y0), s1.min(y1 + span).max(y1));
+    let mut c = ChartBuilder::on(panel)
+        .caption(title, (FONT, 17))
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(46)
+        .build_cartesian_2d(0.0..t1, lo..hi)?;
+    c.configure_mesh()
+        .x_desc(t_label)
+        .x_labels(6)
+        .y_desc("y (quanta)")
+        .label_style((FONT, 13))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
+    let clip = |v: f64| v.clamp(lo, hi);
+    c.draw_series(LineSeries::new(
+        t.iter().copied().zip(y_all.iter().copied()),
+        MEASURED.stroke_width(2),
+    ))?
+    .label(measured)
+    .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MEASURED));
+    c.draw_series(LineSeries::new(
+        t.iter().copied().zip(sim.iter().map(|&v| clip(v))),
+        MODEL.stroke_width(2),
+    ))?
+    .label("simulated")
+    .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MODEL));
+    c.configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
     Ok(())
 }
 
 /// Fig. 7 / 18: residual–input cross-correlation with 99 % bounds.
 pub(super) fn xcorr_panels(area: &Area, rate: &RateReport) -> Drawn {
-    for (panel, m) in area
-        .split_evenly((1, rate.models.len()))
+    let panels = area.split_evenly((1, rate.models.len()));
+    for (panel, m) in panels.iter().zip(&rate.models) {
+        xcorr_panel(panel, &format!("{} {}", m.name, rate.label), &m.xcorr_valid)?;
+    }
+    Ok(())
+}
+
+/// One cross-correlation panel with its 99 % bounds; `name` heads the title.
+pub(super) fn xcorr_panel(panel: &Area, name: &str, x: &CrossCorrelation) -> Drawn {
+    let l = x.lags.last().copied().unwrap_or(1) as f64 + 0.5;
+    let top = x
+        .values
         .iter()
-        .zip(&rate.models)
-    {
-        let x = &m.xcorr_valid;
-        let l = x.lags.last().copied().unwrap_or(1) as f64 + 0.5;
-        let top = x
-            .values
+        .fold(x.bound, |a, v| a.max(v.abs()))
+        .max(0.1)
+        * 1.1;
+    let mut c = ChartBuilder::on(panel)
+        .caption(
+            format!("{name}: {}/{} outside", x.outside, x.lags.len()),
+            (FONT, 17),
+        )
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(46)
+        .build_cartesian_2d(-l..l, -top..top)?;
+    c.configure_mesh()
+        .x_desc("lag τ (samples)")
+        .y_desc("R_εu(τ)")
+        .label_style((FONT, 13))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
+    c.draw_series(x.lags.iter().zip(&x.values).map(|(&k, &v)| {
+        let k = k as f64;
+        PathElement::new([(k, 0.0), (k, v)], INPUT.stroke_width(3))
+    }))?;
+    c.draw_series(
+        x.lags
             .iter()
-            .fold(x.bound, |a, v| a.max(v.abs()))
-            .max(0.1)
-            * 1.1;
-        let mut c = ChartBuilder::on(panel)
-            .caption(
-                format!(
-                    "{} {}: {}/{} outside",
-                    m.name,
-                    rate.label,
-                    x.outside,
-                    x.lags.len()
-                ),
-                (FONT, 17),
-            )
-            .margin(8)
-            .x_label_area_size(36)
-            .y_label_area_size(46)
-            .build_cartesian_2d(-l..l, -top..top)?;
-        c.configure_mesh()
-            .x_desc("lag τ (samples)")
-            .y_desc("R_εu(τ)")
-            .label_style((FONT, 13))
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .draw()?;
-        c.draw_series(x.lags.iter().zip(&x.values).map(|(&k, &v)| {
-            let k = k as f64;
-            PathElement::new([(k, 0.0), (k, v)], INPUT.stroke_width(3))
-        }))?;
-        c.draw_series(
-            x.lags
-                .iter()
-                .zip(&x.values)
-                .map(|(&k, &v)| Circle::new((k as f64, v), 3, INPUT.filled())),
-        )?;
-        for b in [x.bound, -x.bound] {
-            c.draw_series(DashedLineSeries::new(
-                [(-l, b), (l, b)],
-                8,
-                5,
-                MODEL.stroke_width(2),
-            ))?;
-        }
+            .zip(&x.values)
+            .map(|(&k, &v)| Circle::new((k as f64, v), 3, INPUT.filled())),
+    )?;
+    for b in [x.bound, -x.bound] {
+        c.draw_series(DashedLineSeries::new(
+            [(-l, b), (l, b)],
+            8,
+            5,
+            MODEL.stroke_width(2),
+        ))?;
     }
     Ok(())
 }
