@@ -68,15 +68,24 @@ fn fuzz(runs: u64) -> bool {
         return false;
     }
     FUZZ_TARGETS.iter().all(|t| {
+        // libFuzzer writes new inputs into its first corpus directory: a scratch one, so the
+        // committed seeds (read-only second directory) stay as they are.
+        let scratch = std::env::temp_dir().join(format!("sledid-fuzz-{t}-{}", std::process::id()));
+        if let Err(e) = std::fs::create_dir_all(&scratch) {
+            eprintln!("xtask: {}: {e}", scratch.display());
+            return false;
+        }
+        let scratch = scratch.display().to_string();
         let corpus = format!("fuzz/corpus/{t}");
         let runs = format!("-runs={runs}");
-        println!("\n==> cargo +nightly fuzz run {t} {corpus} -- {runs}");
+        println!("\n==> cargo +nightly fuzz run {t} {scratch} {corpus} -- {runs}");
         Command::new("cargo")
             .args([
                 "+nightly",
                 "fuzz",
                 "run",
                 t,
+                &scratch,
                 &corpus,
                 "--",
                 &runs,
