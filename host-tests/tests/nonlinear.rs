@@ -21,6 +21,7 @@ use sledid_host::plants::{
 use sledid_host::reference::nonlinear::{self as nl64, NonlinearF64, static_map};
 use sledid_host::reference::nonlinear_batch::{fit, simulate_from_measured};
 use sledid_host::study::models::{fit_arx, fit_oe, rms_from, simulate};
+use sledid_host::study::plots::curves::{Curve, CurvePanel, write_curves};
 
 /// Identification record length (samples) and validation length.
 const IDENT: usize = 40_000;
@@ -66,6 +67,9 @@ struct Outcome {
     shape_batch: f64,
     shape_online: f64,
     limited: usize,
+    /// The static map over the visited range: (x, true, batch, on-line).
+    map: Vec<(f64, f64, f64, f64)>,
+    structure: NonlinearStructure,
 }
 
 fn run<const N: usize>(plant: NonlinearPlant, structure: NonlinearStructure) -> Outcome {
@@ -133,6 +137,18 @@ fn run<const N: usize>(plant: NonlinearPlant, structure: NonlinearStructure) -> 
         shape_batch: shape(&batch.theta),
         shape_online: shape(&fixed),
         limited,
+        map: (-40..=40)
+            .filter_map(|k| {
+                let x = f64::from(k) / 40.0 * scale;
+                Some((
+                    x,
+                    plant.true_map(x),
+                    static_map(structure, &batch.theta, x)?,
+                    static_map(structure, &fixed, x)?,
+                ))
+            })
+            .collect(),
+        structure,
     }
 }
 
@@ -161,6 +177,36 @@ fn check(name: &str, o: &Outcome, has_map: bool) {
         "{name}: fixed point vs float64 simulation RMS"
     );
     if has_map {
+        // The recovered nonlinearity against the true one, for a look.
+        let curve = |label: &str, f: fn(&(f64, f64, f64, f64)) -> f64, reference| Curve {
+            label: label.into(),
+            points: o.map.iter().map(|p| (p.0, f(p))).collect(),
+            reference,
+        };
+        let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("nonlinear_{}.png", o.structure.name()));
+        write_curves(
+            &path,
+            &[CurvePanel {
+                title: format!("{name}: static nonlinearity"),
+                x_desc: match o.structure {
+                    NonlinearStructure::Wiener => "linear output x (quanta)",
+                    NonlinearStructure::FrictionFeedback => {
+                        "velocity s(t−1) − s(t−2) (quanta/sample)"
+                    }
+                    _ => "u(t−1) (full scale)",
+                }
+                .into(),
+                y_desc: "map output (quanta)".into(),
+                curves: vec![
+                    curve("true", |p| p.1, true),
+                    curve("batch LM (f64)", |p| p.2, false),
+                    curve("on-line (fixed point)", |p| p.3, false),
+                ],
+            }],
+        )
+        .expect("plot");
+        println!("  plot: {}", path.display());
         // RMS error of the static map over the visited range, relative to the map's range.
         assert!(o.shape_batch < 0.1, "{name}: batch shape");
         assert!(o.shape_online < 0.1, "{name}: on-line shape");

@@ -21,6 +21,7 @@ use std::error::Error;
 use std::path::Path;
 use std::sync::OnceLock;
 
+pub mod curves;
 mod nonlinear;
 mod planes;
 mod time;
