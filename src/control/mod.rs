@@ -83,9 +83,21 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod compensation;
+pub mod design;
+pub mod hal;
 pub mod pid;
+pub mod schedule;
+pub mod scheduled;
 
+pub use compensation::InverseInputMap;
+pub use design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
+pub use schedule::{Region, RegionDesign, RegionSelector};
+pub use scheduled::{
+    ModelReport, Redesign, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledOutput,
+    ScheduledState,
+};
 
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;
