@@ -179,6 +179,11 @@ impl InverseInputMap {
         forward(&self.neuron, u)
     }
 
+    /// The neuron of the forward map.
+    pub fn neuron(&self) -> Neuron {
+        self.neuron
+    }
+
     /// The grid: (v₀, step) in I16F16 raw, and the table.
     pub fn grid(&self) -> (i32, i32, &[i32; MAP_ENTRIES]) {
         (self.v0, 1 << self.shift, &self.table)

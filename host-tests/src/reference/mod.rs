@@ -5,6 +5,8 @@
 //!   the same gates (dead zone, excitation, hold) and covariance limits as [`sledid::rls`].
 //! - [`linear::LinearF64`]: ARX / OE (pseudo-linear and prediction-error) with the same regressors,
 //!   the same a-priori/a-posteriori convention and the same stability projection as [`sledid::linear`].
+//! - [`scheduled::ScheduledF64`]: the gain-scheduled controller (regions, supervisor, transfers,
+//!   pole placement, exact inverse input map) against which `sledid::control::scheduled` is measured.
 //! - [`batch`]: batch least squares and simulation of a linear model (the exact optimum and the
 //!   simulation RMS reported by the study).
 
@@ -14,3 +16,4 @@ pub mod decimate;
 pub mod linear;
 pub mod neuron;
 pub mod rls;
+pub mod scheduled;
