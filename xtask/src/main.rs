@@ -88,7 +88,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 7] = [
+const BENCH_FNS: [&str; 9] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
@@ -96,6 +96,8 @@ const BENCH_FNS: [&str; 7] = [
     "bench_neuron_eval",
     "bench_decimate_push",
     "bench_pid_step",
+    "bench_sched_step",
+    "bench_sched_redesign",
 ];
 
 fn cost() -> bool {

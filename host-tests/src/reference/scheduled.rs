@@ -6,7 +6,7 @@
 //! path is measured against (`host-tests/tests/scheduled_control.rs`).
 
 use sledid::Status;
-use sledid::control::scheduled::DISTRUST;
+use sledid::control::supervisor::DISTRUST;
 use sledid::control::{ConfigError, Region, ScheduledDesign};
 
 use super::control::PidF64;
