@@ -144,7 +144,8 @@ impl ScheduledDesign {
                 a: a as f32,
                 b: b as f32,
             };
-            let checked = super::design::reduce(
+            // The supervisor's checks apply to the prior too.
+            super::design::reduce(
                 &[
                     ParamI12F20::from_f64(-a).map_err(|_| ConfigError::InitialModel(a))?,
                     ParamI12F20::from_f64(b).map_err(|_| ConfigError::InitialModel(b))?,
@@ -153,7 +154,6 @@ impl ScheduledDesign {
                 &self.supervisor,
             )
             .map_err(|_| ConfigError::InitialModel(a))?;
-            let _ = checked;
             config.gains = super::design::place(model, &self.placement)
                 .map_err(|_| ConfigError::InitialModel(b))?;
             config.fallback = false;
