@@ -112,6 +112,16 @@ pub enum ConfigError {
     DerivativeLowPass(f64),
     /// Reference low-pass (Hz) not 0 (off) or in (0, 1/(2·Ts)).
     ReferenceLowPass(f64),
+    /// Closed-loop pole (or pole radius) of the scheduled controller outside [0, 1).
+    ClosedLoopPole(f64),
+    /// Region threshold of the scheduled controller (quanta) negative, not finite, out of the
+    /// I16F16 range, or out of order (hold ≤ settle band, enter ≤ leave).
+    RegionThreshold(f64),
+    /// Supervisor limit (model pole region, gain range, prediction-error limit) not finite or out of
+    /// order.
+    SupervisorLimit(f64),
+    /// Input-map compensation: range not finite / not positive, or the map is not increasing.
+    CompensationMap(f64),
 }
 
 impl fmt::Display for ConfigError {
@@ -190,6 +200,21 @@ impl fmt::Display for ConfigError {
             Self::ReferenceLowPass(v) => write!(
                 f,
                 "reference_lowpass_hz = {v}: must be 0 (off) or in (0, 1/(2·ts_s))"
+            ),
+            Self::ClosedLoopPole(v) => {
+                write!(f, "closed-loop pole = {v}: must be finite and in [0, 1)")
+            }
+            Self::RegionThreshold(v) => write!(
+                f,
+                "region threshold = {v}: must be finite, ≥ 0, < 32768 quanta and ordered (hold < settle, enter ≤ leave)"
+            ),
+            Self::SupervisorLimit(v) => write!(
+                f,
+                "supervisor limit = {v}: must be finite, > 0 and ordered (min < max)"
+            ),
+            Self::CompensationMap(v) => write!(
+                f,
+                "compensation map = {v}: the range must be finite and > 0 and the map increasing"
             ),
         }
     }

@@ -3,6 +3,8 @@
 
 pub mod closed_loop;
 pub mod compare;
+pub mod control_eval;
+pub mod control_plot;
 pub mod faults;
 pub mod plants;
 pub mod recording;

@@ -63,6 +63,26 @@ enum Command {
     /// recording, or on a twin recording with the paper's protocol (`--twin`): DIR/study.json and
     /// PNG figures like the paper's.
     Study(Box<StudyArgs>),
+    /// The twin in closed loop with the library's controller (baseline PID, or the gain-scheduled
+    /// controller fed by the identifier): DIR/summary.json (settling, overshoot, limit-cycle
+    /// pulses, unsettled seeks, fallbacks) and DIR/step_responses.png.
+    Control {
+        /// Plant, reference and baseline parameters (JSON; missing keys take the defaults).
+        #[arg(long)]
+        plant: Option<PathBuf>,
+        /// Which controller.
+        #[arg(long, value_enum, default_value = "scheduled")]
+        controller: ControllerArg,
+        /// Random seeks.
+        #[arg(long, default_value_t = 100)]
+        seeks: u32,
+        /// Seed of the seeks and the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Generate a twin recording, replay it through the fixed-point identifier and its float64
     /// reference, write DIR/trace.csv and DIR/summary.json.
     Demo {
@@ -73,6 +93,15 @@ enum Command {
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
     },
+}
+
+/// `--controller`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ControllerArg {
+    /// The paper's badly tuned PID.
+    Baseline,
+    /// The gain-scheduled controller with the on-line identifier.
+    Scheduled,
 }
 
 #[derive(clap::Args)]
@@ -512,6 +541,22 @@ fn main() -> ExitCode {
         out: PathBuf::from("out/demo"),
     }) {
         Command::Demo { seed, out } => demo(seed, &out),
+        Command::Control {
+            plant,
+            controller,
+            seeks,
+            seed,
+            out,
+        } => sledid_host::control_eval::control_cmd(
+            plant.as_deref(),
+            match controller {
+                ControllerArg::Baseline => sledid_host::control_eval::ControllerKind::Baseline,
+                ControllerArg::Scheduled => sledid_host::control_eval::ControllerKind::Scheduled,
+            },
+            seeks,
+            seed,
+            &out,
+        ),
         Command::Replay(args) => replay_cmd(&args),
         Command::Study(args) => study_cmd(&args),
         Command::Soak {

@@ -7,7 +7,10 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 use sledid::boundary::PositionI48F16;
-use sledid::control::{PidConfig, PidDesign, PidState};
+use sledid::control::{
+    InverseInputMap, ModelReport, PidConfig, PidDesign, PidState, ScheduledConfig, ScheduledDesign,
+    ScheduledState,
+};
 use sledid::decimate::{DecimatorConfig, DecimatorState};
 use sledid::fixed::{ParamI12F20, SignalI16F16};
 use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
@@ -16,6 +19,7 @@ use sledid::nonlinear::{
     InputRanges, NonlinearConfig, NonlinearDesign, NonlinearState, NonlinearStructure,
 };
 use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
+use sledid::status::Status;
 
 /// Length of the input tables (calls cycle through them).
 const TABLE: usize = 64;
@@ -246,9 +250,64 @@ impl<const N: usize> NonlinearBench<N> {
     }
 }
 
+/// One gain-scheduled controller step (the per-sample path): the twin's baseline as fallback, the
+/// nominal sled's velocity model as gains, the Coulomb inverse input map; the reference constant and
+/// the measurement a table value (±2 quanta) around it, so Settle and Hold alternate with the
+/// region logic, the supervisor and the map all running.
+pub struct ScheduledBench {
+    config: ScheduledConfig,
+    state: ScheduledState,
+}
+
+impl ScheduledBench {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let baseline = PidDesign {
+            kp_v_per_quantum: 0.015,
+            ki_v_per_quantum_s: 200.0,
+            kd_v_s_per_quantum: 1.0e-5,
+            integrator_limit_v: 0.07,
+            derivative_lowpass_hz: 1000.0,
+            ..PidDesign::new(0.455e-3, 5.0)
+        };
+        let mut design = ScheduledDesign::new(baseline);
+        design.prior_model = Some((0.8336, 23.66));
+        design.compensation = InverseInputMap::coulomb(0.0075, 0.9, 0.05).ok();
+        let config = design.build().ok()?;
+        Some(Self {
+            config,
+            state: ScheduledState::new(),
+        })
+    }
+
+    /// Call `i`: one step with an updated, small-ε identifier report.
+    pub fn call(&mut self, i: u32) -> u32 {
+        let r = PositionI48F16::from_counts(300);
+        let y = PositionI48F16::from_raw(r.raw() + i64::from(at(&Y_TABLE, i).raw()));
+        let report = ModelReport {
+            status: Status::UPDATED,
+            eps: at(&PSI_TABLE, i),
+        };
+        let o = self.config.step(&mut self.state, r, y, &report);
+        (o.u.raw() as u32) ^ u32::from(o.flags.bits())
+    }
+
+    /// Call `i`: the same step, then the slow-rate redesign (f32 + libm) from a θ that varies
+    /// with `i` (subtract the step's cost).
+    pub fn call_with_redesign(&mut self, i: u32) -> u32 {
+        let acc = self.call(i);
+        let a = ParamI12F20::from_raw(-(858_000 + (i % 64) as i32 * 100));
+        let b = ParamI12F20::from_raw(24_800_000 + (i % 64) as i32 * 1000);
+        let outcome = self.config.redesign(&mut self.state, &[a, b]);
+        acc ^ u32::from(matches!(outcome, sledid::control::Redesign::Applied(_)))
+    }
+}
+
 #[cfg(target_os = "none")]
 mod target {
-    use super::{ArxBench, DecimateBench, NeuronBench, NonlinearBench, PidBench, RlsBench};
+    use super::{
+        ArxBench, DecimateBench, NeuronBench, NonlinearBench, PidBench, RlsBench, ScheduledBench,
+    };
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
@@ -265,6 +324,8 @@ mod target {
     static NOE221: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
     static WIENER: Mutex<RefCell<Option<NonlinearBench<5>>>> = Mutex::new(RefCell::new(None));
     static FRICTION: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
+    static SCHED: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
+    static REDESIGN: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -290,6 +351,8 @@ mod target {
             FRICTION
                 .borrow(cs)
                 .replace(NonlinearBench::new(NonlinearStructure::FrictionFeedback));
+            SCHED.borrow(cs).replace(ScheduledBench::new());
+            REDESIGN.borrow(cs).replace(ScheduledBench::new());
         });
     }
 
@@ -407,9 +470,33 @@ mod target {
         FRICTION
     );
 
+    /// One gain-scheduled controller step (regions, supervisor, law, inverse map, saturation).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_sched_step(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            SCHED
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i))
+        })
+    }
+
+    /// One scheduled step plus the slow-rate redesign (f32 + libm pole placement).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_sched_redesign(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            REDESIGN
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call_with_redesign(i))
+        })
+    }
+
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 12] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 14] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
@@ -422,6 +509,8 @@ mod target {
         bench_noe221_step,
         bench_wiener_step,
         bench_friction_step,
+        bench_sched_step,
+        bench_sched_redesign,
     ];
 
     #[entry]
@@ -485,6 +574,11 @@ fn main() {
     if let Some(mut pb) = PidBench::new() {
         let p_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(pb.call(i)));
         println!("pid checksum = {p_acc:#x}");
+    }
+    if let (Some(mut sb), Some(mut rb)) = (ScheduledBench::new(), ScheduledBench::new()) {
+        let s_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(sb.call(i)));
+        let r_acc = (0..500).fold(0u32, |acc, i| acc.wrapping_add(rb.call_with_redesign(i)));
+        println!("scheduled checksum = {s_acc:#x}, with redesign = {r_acc:#x}");
     }
     println!(
         "Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md)."

@@ -1,7 +1,20 @@
 //! Position control of the sled in fixed point: the paper's loop (Section 3, Figure 2) closed by a
 //! PID/lead controller, configurable as the twin's badly tuned baseline and as the EMPS rig's
-//! PD-with-inner-velocity-loop controller.
+//! PD-with-inner-velocity-loop controller — and the gain-scheduled controller the paper's
+//! conclusion asks for ("different models, and then also different controllers, at different
+//! parts of a step response", §6).
 //!
+//! | module | what |
+//! |---|---|
+//! | [`pid`] | the baseline PID/lead (this page documents its law, formats and accuracy) |
+//! | [`schedule`] | the seek / settle / hold regions and their hysteresis |
+//! | [`design`] | slow-rate indirect self-tuning: identified θ → velocity model → pole placement (f32, `libm`) |
+//! | [`compensation`] | inverse of a Hammerstein input map (the paper's tanh neuron), as a table |
+//! | [`scheduled`] | the per-sample scheduled law, transfers, anti-windup, supervisor and fallback |
+//! | [`supervisor`] | the scheduled controller's flags, the identifier's report, redesign outcomes |
+//! | [`hal`] | embedded-hal 1.0 boundary: `SetDutyCycle` drives, a position-sensor trait, the loop |
+//!
+//! The rest of this page is the baseline PID's documentation.
 //! # Equations
 //! Per sample `k`, positions in sensor quanta, every term in fractions of the full-scale drive
 //! `u_fs` (the design's gains in volts are divided by `u_fs` when the configuration is built):
@@ -83,9 +96,22 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod compensation;
+pub mod design;
+pub mod hal;
 pub mod pid;
+pub mod schedule;
+pub mod scheduled;
+pub mod supervisor;
 
+pub use compensation::InverseInputMap;
+pub use design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
+pub use schedule::{Region, RegionDesign, RegionSelector};
+pub use scheduled::{
+    ModelReport, Redesign, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledOutput,
+    ScheduledState,
+};
 
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;
@@ -182,8 +208,62 @@ impl Gain {
     const MAX_SHIFT: u32 = 62;
 
     /// Quantises `g` (I32F32 output units per I16F16 input unit); `None` for NaN, ±∞ or |g| ≥ 2¹⁵.
-    #[allow(clippy::float_arithmetic)] // design time, not the per-sample path
+    ///
+    /// `m = round(g·2¹⁶·2^s)` with the smallest `s ≤ 62` that puts |m| in [2³⁰, 2³¹), computed from
+    /// the bits of `g` (exponent and 53-bit mantissa) with integer shifts only: it runs in the
+    /// slow-rate redesign on cores without a double-precision FPU, where a loop of `f64`
+    /// multiplications cost ~3,000 instructions per gain (`bench_sched_redesign`).
     pub fn from_f64(g: f64) -> Option<Self> {
+        if !g.is_finite() {
+            return None;
+        }
+        let bits = g.to_bits();
+        let negative = bits >> 63 != 0;
+        let biased = ((bits >> 52) & 0x7ff) as i32;
+        let fraction = bits & ((1 << 52) - 1);
+        if biased == 0 && fraction == 0 {
+            return Some(Self::ZERO);
+        }
+        // |g| = mant · 2^(e − 1075) (normal) or fraction · 2^−1074 (subnormal).
+        let (mant, e) = if biased == 0 {
+            (fraction, 1)
+        } else {
+            (fraction | (1 << 52), biased)
+        };
+        // x·2^s = mant · 2^(e − 1075 + 16 + s); for a normal mant ∈ [2^52, 2^53) the integer
+        // part lies in [2^30, 2^31) when the exponent is −22: s = 1037 − e.
+        let s = 1037 - e;
+        if s < 0 {
+            return None; // |x| ≥ 2^31
+        }
+        let s = s.min(Self::MAX_SHIFT as i32);
+        let right = (1075 - 16 - s - e) as u32; // ≥ 22
+        // round half up: floor(mant / 2^right + 1/2); right ≥ 64 gives 0.
+        let m = if right >= 64 {
+            0
+        } else {
+            ((u128::from(mant) + (1u128 << (right - 1))) >> right) as i64
+        };
+        let (m, s) = if m >= 1 << 31 {
+            // Rounded up to 2^31: one bit less of shift.
+            if s == 0 {
+                return None;
+            }
+            (1i64 << 30, s - 1)
+        } else {
+            (m, s)
+        };
+        let m = m as i32; // < 2^31
+        Some(Self {
+            m: if negative { -m } else { m },
+            s: s as u32,
+        })
+    }
+
+    /// The float loop `from_f64` replaced, kept to check it bit for bit.
+    #[cfg(test)]
+    #[allow(clippy::float_arithmetic)]
+    fn from_f64_by_loop(g: f64) -> Option<Self> {
         if !g.is_finite() {
             return None;
         }
@@ -199,9 +279,8 @@ impl Gain {
             x *= 2.0;
             s += 1;
         }
-        let mut m = (x + 0.5) as i64; // x < 2^31: no truncation of the integer part
+        let mut m = (x + 0.5) as i64;
         if m >= 1 << 31 {
-            // Rounded up to 2^31: one bit less of shift.
             if s == 0 {
                 return None;
             }
@@ -319,6 +398,39 @@ mod tests {
         // Tiny gains underflow to their rounding, never panic.
         let tiny = Gain::from_f64(1e-30).unwrap();
         assert_eq!(tiny.apply(i32::MAX), 0);
+    }
+
+    #[test]
+    fn gain_from_bits_equals_the_float_loop() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let fixed = [
+            0.0,
+            -0.0,
+            1.0,
+            32_768.0,
+            32_767.999_999,
+            -32_767.999_999_9,
+            1e-30,
+            -1e-14,
+            3.0e-9,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::MAX,
+            (1u64 << 31) as f64 / 65_536.0 - 1e-12,
+            0.999_999_999_9,
+        ];
+        let check = |v: f64| assert_eq!(Gain::from_f64(v), Gain::from_f64_by_loop(v), "{v:e}");
+        fixed.iter().for_each(|&v| check(v));
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = f64::from_bits(x);
+            check(v);
+            // And a value in the gains' usual range, with random low bits.
+            check(((x >> 11) as f64 / (1u64 << 53) as f64) * 1e-3);
+            check(-((x >> 11) as f64 / (1u64 << 53) as f64) * 1e-3 * 0.013);
+        }
     }
 
     #[test]

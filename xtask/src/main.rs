@@ -97,7 +97,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 12] = [
+const BENCH_FNS: [&str; 14] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
@@ -110,6 +110,8 @@ const BENCH_FNS: [&str; 12] = [
     "bench_noe221_step",
     "bench_wiener_step",
     "bench_friction_step",
+    "bench_sched_step",
+    "bench_sched_redesign",
 ];
 
 fn cost() -> bool {

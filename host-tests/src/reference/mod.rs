@@ -8,6 +8,8 @@
 //! - [`nonlinear::NonlinearF64`]: the paper's nonlinear models (eq. 5–7, Wiener, friction feedback)
 //!   recursively, mirroring [`sledid::nonlinear`]; [`nonlinear_batch`]: their Levenberg–Marquardt
 //!   fit on the simulation error.
+//! - [`scheduled::ScheduledF64`]: the gain-scheduled controller (regions, supervisor, transfers,
+//!   pole placement, exact inverse input map) against which `sledid::control::scheduled` is measured.
 //! - [`batch`]: batch least squares and simulation of a linear model (the exact optimum and the
 //!   simulation RMS reported by the study).
 
@@ -19,3 +21,4 @@ pub mod neuron;
 pub mod nonlinear;
 pub mod nonlinear_batch;
 pub mod rls;
+pub mod scheduled;

@@ -1,0 +1,419 @@
+//! `sledid control`: the sled twin in closed loop with the library's controllers — the baseline PID
+//! (`sledid::control::pid`) or the gain-scheduled controller (`sledid::control::scheduled`) fed by
+//! the identifier through `sledid::step::step`, the firmware's per-sample function — and the
+//! settling statistics the issue asks for, a JSON summary and a plot of a few step responses.
+//!
+//! # Measures (per seek; the error is `target − y` in quanta, as in `twin::analysis`)
+//! - settling time: from the seek's first sample until |e| ≤ 1 for the rest of the seek; a seek
+//!   that never settles counts as `unsettled` and enters the statistics with its whole length (a
+//!   lower bound of its settling time);
+//! - overshoot: beyond the target after the first entry into |e| ≤ 1;
+//! - `limit_cycle_pulses`: runs of |u| above the breakaway voltage in the last half of each dwell
+//!   (`twin::analysis`, the same window for both controllers); `hold_pulses`: such runs while the
+//!   scheduled controller is in Hold;
+//! - `reference_bound_ms`: when the reference itself comes within 1 quantum of the target for
+//!   good — no controller that follows the reference settles earlier (by more than the overshoot
+//!   of a faster-than-reference seek, which the reference does not ask for).
+
+use serde::Serialize;
+use sledid::boundary::Sample;
+use sledid::conditioning::Conditioning;
+use sledid::control::{
+    InverseInputMap, ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign,
+    ScheduledFlags, ScheduledState,
+};
+use sledid::linear::{LinearDesign, Structure};
+use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::step::{IdentifierConfig, IdentifierDesign, IdentifierState, step};
+use std::path::Path;
+
+use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
+use crate::twin::{PlantParams, SledController, Twin, TwinParams};
+
+/// Which controller closes the loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// The paper's badly tuned PID (the twin's default gains) in fixed point.
+    Baseline,
+    /// The gain-scheduled controller with the on-line identifier.
+    Scheduled,
+}
+
+/// The identifier feeding the scheduled controller: ARX(1, 1) on the velocity Δy against u (the
+/// first-order velocity model of `sledid::control::design`), λ = 0.995, dead zone ¼ quantum, trace
+/// ≤ 100, outlier gate 40 quanta per sample, started from `prior` = (a, b).
+pub fn identifier_design(prior: (f64, f64)) -> IdentifierDesign<2> {
+    let mut model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
+    model.theta0 = [-prior.0, prior.1];
+    model.rls = RlsDesign {
+        lambda: 0.995,
+        p0: 10.0,
+        dead_zone: 0.25,
+        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+        outlier_threshold: 40.0,
+        outlier_limit: 16,
+        ..RlsDesign::default()
+    };
+    IdentifierDesign::new(Conditioning::DifferencedOutput, model)
+}
+
+/// The velocity model (a, b) of a plant from its physics (viscous pole, drive gain; friction
+/// ignored): `a = e^{−b_v·Ts/m}`, `b = (1 − a)·k_f·u_fs/b_v·Ts/q` quanta per sample per full scale.
+pub fn physical_model(plant: &PlantParams) -> (f64, f64) {
+    let a = (-plant.viscous_n_s_per_m * plant.ts_s / plant.mass_kg).exp();
+    let v_fs_m_per_s = plant.force_per_volt_n_per_v * plant.u_max_v / plant.viscous_n_s_per_m;
+    (a, (1.0 - a) * v_fs_m_per_s * plant.ts_s / plant.quantum_m)
+}
+
+/// The scheduled design for a twin, tuned on the *nominal* plant ([`PlantParams::default`]): its
+/// physical velocity model as the prior, its Coulomb friction as the compensated input map, the
+/// twin's baseline PID as the fallback. Only the sampling period, rail and quantum of `params`
+/// are used (the units the controller works in), not its mass or friction.
+pub fn scheduled_design(params: &TwinParams) -> Result<ScheduledDesign, String> {
+    let p = &params.plant;
+    let nominal = PlantParams {
+        ts_s: p.ts_s,
+        u_max_v: p.u_max_v,
+        quantum_m: p.quantum_m,
+        ..PlantParams::default()
+    };
+    let mut d = ScheduledDesign::new(baseline_design(&params.controller, p.ts_s, p.u_max_v));
+    d.prior_model = Some(physical_model(&nominal));
+    let coulomb_fs = nominal.coulomb_n / nominal.force_per_volt_n_per_v / nominal.u_max_v;
+    d.compensation =
+        Some(InverseInputMap::coulomb(coulomb_fs, 0.9, 0.05).map_err(|e| e.to_string())?);
+    Ok(d)
+}
+
+/// The scheduled controller and the identifier behind the twin's controller interface.
+pub struct ScheduledLoop {
+    /// The controller configuration (swapped by redesigns).
+    pub config: ScheduledConfig,
+    /// The controller state.
+    pub state: ScheduledState,
+    identifier: IdentifierConfig<2>,
+    id_state: IdentifierState<2>,
+    report: ModelReport,
+    u_full_scale_v: f64,
+    /// Per sample: the region and flags.
+    pub trace: Vec<(Region, ScheduledFlags)>,
+    /// Every redesign outcome.
+    pub redesigns: Vec<Redesign>,
+}
+
+impl ScheduledLoop {
+    /// From a design and the identifier's design.
+    pub fn new(design: &ScheduledDesign, identifier: &IdentifierDesign<2>) -> Result<Self, String> {
+        let config = design.build().map_err(|e| e.to_string())?;
+        let identifier = identifier.build().map_err(|e| e.to_string())?;
+        Ok(Self {
+            config,
+            state: config.new_state(),
+            id_state: identifier.new_state(),
+            identifier,
+            report: ModelReport::default(),
+            u_full_scale_v: design.baseline.u_full_scale_v,
+            trace: Vec::new(),
+            redesigns: Vec::new(),
+        })
+    }
+
+    /// The identifier's θ now.
+    pub fn theta(&self) -> [f64; 2] {
+        self.id_state.model().theta().map(|p| p.to_f64())
+    }
+}
+
+impl SledController for ScheduledLoop {
+    fn step(&mut self, r_counts: f64, y_counts: f64) -> f64 {
+        let (r, y) = (
+            position_from_quanta(r_counts),
+            position_from_quanta(y_counts),
+        );
+        let out = self.config.step(&mut self.state, r, y, &self.report);
+        // The identifier sees what the firmware would: y(k), the command u(k), r(k).
+        let id = step(
+            &self.identifier,
+            &mut self.id_state,
+            &Sample { y, u: out.u, r },
+        );
+        self.report = ModelReport {
+            status: id.status,
+            eps: id.eps,
+        };
+        if self.state.redesign_pending() {
+            let outcome = self.config.redesign(&mut self.state, &id.theta);
+            self.redesigns.push(outcome);
+        }
+        self.trace.push((out.region, out.flags));
+        out.u.to_f64() * self.u_full_scale_v
+    }
+}
+
+/// Median, 90th percentile and maximum.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Spread {
+    /// Median.
+    pub median: f64,
+    /// 90th percentile (nearest rank).
+    pub p90: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Spread {
+    /// Of `values` (0 for none).
+    pub fn of(values: &[f64]) -> Self {
+        let mut v: Vec<f64> = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| {
+            let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+            v.get(i).copied().unwrap_or(0.0)
+        };
+        Self {
+            median: if v.is_empty() {
+                0.0
+            } else if v.len() % 2 == 1 {
+                v.get(v.len() / 2).copied().unwrap_or(0.0)
+            } else {
+                (v.get(v.len() / 2 - 1).copied().unwrap_or(0.0)
+                    + v.get(v.len() / 2).copied().unwrap_or(0.0))
+                    / 2.0
+            },
+            p90: at(0.9),
+            max: v.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// Redesign outcomes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RedesignCounts {
+    /// Gains placed.
+    pub applied: usize,
+    /// No trusted update since the last design.
+    pub skipped: usize,
+    /// Model refused by the supervisor.
+    pub rejected: usize,
+}
+
+/// `DIR/summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControlSummary {
+    /// Which controller.
+    pub controller: ControllerKind,
+    /// Seed of the seeks and the noise.
+    pub seed: u64,
+    /// Seeks evaluated.
+    pub seeks: usize,
+    /// The plant.
+    pub plant: PlantParams,
+    /// Settling time, ms.
+    pub settling_ms: Spread,
+    /// Settling time counted from the reference's arrival at the target, ms (≥ 0).
+    pub settling_after_arrival_ms: Spread,
+    /// When the reference itself is within 1 quantum of the target for good, ms.
+    pub reference_bound_ms: Spread,
+    /// Overshoot, quanta (`p90` included).
+    pub overshoot_quanta: Spread,
+    /// Pulses above breakaway in the last half of every dwell.
+    pub limit_cycle_pulses: usize,
+    /// Pulses above breakaway while in Hold (scheduled only).
+    pub hold_pulses: usize,
+    /// Seeks that never settled.
+    pub unsettled: usize,
+    /// Entries into the fallback (scheduled only).
+    pub fallbacks: usize,
+    /// Samples in the fallback.
+    pub fallback_samples: usize,
+    /// Redesign outcomes (scheduled only).
+    pub redesigns: RedesignCounts,
+    /// Largest |u| applied, V.
+    pub u_peak_v: f64,
+}
+
+/// A finished closed-loop run.
+pub struct ControlRun {
+    /// The twin with its recording.
+    pub twin: Twin,
+    /// Per sample region and flags (scheduled only).
+    pub trace: Vec<(Region, ScheduledFlags)>,
+    /// The summary.
+    pub summary: ControlSummary,
+}
+
+/// Runs `seeks` random seeks of `params` with `kind` in the loop.
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    kind: ControllerKind,
+) -> Result<ControlRun, String> {
+    match kind {
+        ControllerKind::Baseline => run_with(params, seed, seeks, None),
+        ControllerKind::Scheduled => {
+            let design = scheduled_design(params)?;
+            run_with(params, seed, seeks, Some(&design))
+        }
+    }
+}
+
+/// Runs `seeks` random seeks of `params` with the baseline (`design` = `None`) or the scheduled
+/// controller of `design` in the loop.
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_with(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+) -> Result<ControlRun, String> {
+    let mut params = params.clone();
+    params.reference.seek_count = seeks;
+    params.reference.targets_tracks = None;
+    let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
+    let p = &params.plant;
+    let (trace, redesigns, kind) = match design {
+        None => {
+            let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
+            let mut c = FixedPid::new(&design).map_err(|e| e.to_string())?;
+            twin.set_controller_label("baseline_fixed_pid");
+            twin.run(&mut c);
+            (Vec::new(), Vec::new(), ControllerKind::Baseline)
+        }
+        Some(design) => {
+            let prior = design.prior_model.unwrap_or((0.8, 20.0));
+            let mut c = ScheduledLoop::new(design, &identifier_design(prior))?;
+            twin.set_controller_label("scheduled");
+            twin.run(&mut c);
+            (c.trace, c.redesigns, ControllerKind::Scheduled)
+        }
+    };
+    let summary = summarize(&twin, &trace, &redesigns, kind, seed);
+    Ok(ControlRun {
+        twin,
+        trace,
+        summary,
+    })
+}
+
+fn summarize(
+    twin: &Twin,
+    trace: &[(Region, ScheduledFlags)],
+    redesigns: &[Redesign],
+    kind: ControllerKind,
+    seed: u64,
+) -> ControlSummary {
+    let plant = twin.params().plant.clone();
+    let ts_ms = plant.ts_s * 1e3;
+    let breakaway_v = plant.static_n / plant.force_per_volt_n_per_v;
+    let stats = twin.seek_stats();
+    let samples = twin.samples();
+    let (mut settle, mut after, mut bound, mut over) = (vec![], vec![], vec![], vec![]);
+    let mut unsettled = 0;
+    for (seek, st) in twin.seeks().iter().zip(&stats) {
+        let (Some(arrival), Some(end)) = (seek.arrival_index, seek.end_index) else {
+            continue;
+        };
+        let length_ms = (end - seek.start_index) as f64 * ts_ms;
+        let s_ms = st.settling_time_s.map_or_else(
+            || {
+                unsettled += 1;
+                length_ms
+            },
+            |s| s * 1e3,
+        );
+        settle.push(s_ms);
+        after.push((s_ms - (arrival - seek.start_index) as f64 * ts_ms).max(0.0));
+        let last_far = samples
+            .get(seek.start_index..end)
+            .unwrap_or(&[])
+            .iter()
+            .rposition(|s| (s.r_m / plant.quantum_m - seek.target_counts as f64).abs() > 1.0);
+        bound.push(last_far.map_or(0.0, |i| (i + 1) as f64 * ts_ms));
+        over.push(st.overshoot_counts as f64);
+    }
+    let mut hold_pulses = 0;
+    let mut in_pulse = false;
+    for (s, (region, _)) in samples.iter().zip(trace) {
+        let strong = *region == Region::Hold && s.u_v.abs() > breakaway_v;
+        hold_pulses += usize::from(strong && !in_pulse);
+        in_pulse = strong;
+    }
+    let mut fallbacks = 0;
+    let mut was = false;
+    for (_, f) in trace {
+        let now = f.contains(ScheduledFlags::FALLBACK);
+        fallbacks += usize::from(now && !was);
+        was = now;
+    }
+    let mut counts = RedesignCounts::default();
+    for r in redesigns {
+        match r {
+            Redesign::Applied(_) => counts.applied += 1,
+            Redesign::Skipped => counts.skipped += 1,
+            Redesign::Rejected(_) => counts.rejected += 1,
+        }
+    }
+    ControlSummary {
+        controller: kind,
+        seed,
+        seeks: settle.len(),
+        plant,
+        settling_ms: Spread::of(&settle),
+        settling_after_arrival_ms: Spread::of(&after),
+        reference_bound_ms: Spread::of(&bound),
+        overshoot_quanta: Spread::of(&over),
+        limit_cycle_pulses: stats.iter().map(|s| s.limit_cycle.pulses).sum(),
+        hold_pulses,
+        unsettled,
+        fallbacks,
+        fallback_samples: trace
+            .iter()
+            .filter(|(_, f)| f.contains(ScheduledFlags::FALLBACK))
+            .count(),
+        redesigns: counts,
+        u_peak_v: samples.iter().fold(0.0, |m: f64, s| m.max(s.u_v.abs())),
+    }
+}
+
+/// A copy of `params` with the mass, friction (Coulomb and static) and quantum scaled.
+pub fn perturbed(params: &TwinParams, mass: f64, friction: f64, quantum: f64) -> TwinParams {
+    let mut p = params.clone();
+    p.plant.mass_kg *= mass;
+    p.plant.coulomb_n *= friction;
+    p.plant.static_n *= friction;
+    p.plant.quantum_m *= quantum;
+    p
+}
+
+/// `sledid control`: runs, writes `DIR/summary.json` and `DIR/step_responses.png`, prints the
+/// summary.
+///
+/// # Errors
+/// Parameter, run, file or plot errors.
+pub fn control_cmd(
+    plant: Option<&Path>,
+    kind: ControllerKind,
+    seeks: u32,
+    seed: u64,
+    out: &Path,
+) -> Result<(), String> {
+    let params = match plant {
+        Some(p) => TwinParams::from_json_file(p).map_err(|e| e.to_string())?,
+        None => TwinParams::default(),
+    };
+    let run = run(&params, seed, seeks, kind)?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let json = serde_json::to_string_pretty(&run.summary).map_err(|e| e.to_string())?;
+    let path = out.join("summary.json");
+    std::fs::write(&path, json.clone() + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::control_plot::plot_steps(&run, &out.join("step_responses.png"), 4)?;
+    println!("{json}\n→ {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,330 @@
+//! Indirect self-tuning: the identified model → a first-order velocity model → controller gains by
+//! pole placement. Runs at a slow rate (once per settle phase, outside the sample interrupt) and
+//! may use `f32` with [`libm`]; the per-sample path only applies the quantised [`ModelGains`].
+//!
+//! # Model
+//! The identifier (`crate::step`, [`crate::conditioning::Conditioning::DifferencedOutput`])
+//! estimates ARX on the velocity `Δy` (quanta per sample) against the drive u (fraction of full
+//! scale), the paper's first-order structure (eq. 1 with `A = 1 + a₁q⁻¹`, `B = b₁q⁻¹`) on the
+//! sled without its integrator:
+//!
+//! ```text
+//! na = 1:  Δy(k+1) = a·Δy(k) + b·u(k),   a = −a₁, b = b₁ (+ b₂ …)
+//! na = 2:  a = the dominant real root of z² + a₁z + a₂,  b = (1 − a)·B(1)/A(1)   (same DC gain)
+//! ```
+//! so from u to the position `G(z) = b·z / ((z − a)(z − 1))`.
+//!
+//! # Pole placement (closed forms)
+//! Seek, PD with reference feedforward, `u = Kp·e + Kd·(v_r − v) + u_ff`, both poles at p_s:
+//! `(z − a)(z − 1) + b·Kp·z + b·Kd·(z − 1) = (z − p_s)²` gives
+//! ```text
+//! b·Kd = a − p_s²,   b·Kp = (1 − p_s)²,   u_ff = ((1 − a)·v_r + Δv_r) / b     (model inverse)
+//! ```
+//! Settle, PID `u = Kp·e − Kd·v + I`, `I(k) = I(k−1) + Ki·e(k)`, three poles at p_z:
+//! `(z − a)(z − 1)² + b·[Kp·z(z − 1) + Ki·z² + Kd·(z − 1)²] = (z − p_z)³`, with s₁ = 3p_z,
+//! s₂ = 3p_z², s₃ = p_z³:
+//! ```text
+//! b·Kd = a − s₃,   b·Kp = 1 + 2s₃ − s₂,   b·Ki = 2 + a − s₁ − b·Kp − b·Kd
+//! ```
+//! (`host-tests/src/reference/scheduled.rs` checks these against the closed-loop poles in f64.)
+//!
+//! # Supervisor checks (indirect STR safety net)
+//! A model is refused — and the controller falls back to the baseline gains — when the pole is
+//! complex or outside `[pole_min, pole_max]`, when b has the wrong sign (a reversed sensor or
+//! drive) or lies outside `[gain_min, gain_max]`, or when a gain does not fit the [`Gain`] format.
+
+use super::{ConfigError, Gain};
+use crate::fixed::ParamI12F20;
+
+/// Closed-loop pole choices (z-plane radii, real).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PlacementDesign {
+    /// p_s: the seek PD's double pole, in [0, 1).
+    pub seek_pole: f64,
+    /// p_z: the settle PID's triple pole, in [0, 1).
+    pub settle_pole: f64,
+    /// Reference feedforward through the model inverse in the seek.
+    pub feedforward: bool,
+}
+
+impl Default for PlacementDesign {
+    fn default() -> Self {
+        Self {
+            seek_pole: 0.5,
+            settle_pole: 0.7,
+            feedforward: true,
+        }
+    }
+}
+
+/// Limits on the identified model (the allowed region) and on the estimator's health.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SupervisorDesign {
+    /// Smallest accepted velocity pole a.
+    pub pole_min: f64,
+    /// Largest accepted velocity pole a (< 1: a stable velocity model).
+    pub pole_max: f64,
+    /// Smallest accepted b, quanta per sample per full scale (> 0: the sign check).
+    pub gain_min: f64,
+    /// Largest accepted b.
+    pub gain_max: f64,
+    /// Largest accepted running mean of |ε|, quanta per sample.
+    pub eps_limit_quanta: f64,
+    /// Samples the supervisor distrusts the model after a bad estimator flag.
+    pub untrusted_hold_samples: u16,
+}
+
+impl Default for SupervisorDesign {
+    fn default() -> Self {
+        Self {
+            pole_min: 0.2,
+            pole_max: 0.98,
+            gain_min: 1.0,
+            gain_max: 1000.0,
+            eps_limit_quanta: 8.0,
+            untrusted_hold_samples: 256,
+        }
+    }
+}
+
+impl PlacementDesign {
+    /// Checks the poles.
+    ///
+    /// # Errors
+    /// [`ConfigError::ClosedLoopPole`] for a pole not in [0, 1).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for p in [self.seek_pole, self.settle_pole] {
+            if !(p.is_finite() && (0.0..1.0).contains(&p)) {
+                return Err(ConfigError::ClosedLoopPole(p));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SupervisorDesign {
+    /// Checks the limits.
+    ///
+    /// # Errors
+    /// [`ConfigError::SupervisorLimit`] naming the first bad value.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let bad = ConfigError::SupervisorLimit;
+        if !(self.pole_min.is_finite() && self.pole_min >= 0.0) {
+            return Err(bad(self.pole_min));
+        }
+        if !(self.pole_max.is_finite() && self.pole_max < 1.0 && self.pole_max > self.pole_min) {
+            return Err(bad(self.pole_max));
+        }
+        if !(self.gain_min.is_finite() && self.gain_min > 0.0) {
+            return Err(bad(self.gain_min));
+        }
+        if !(self.gain_max.is_finite() && self.gain_max > self.gain_min) {
+            return Err(bad(self.gain_max));
+        }
+        if !(self.eps_limit_quanta.is_finite()
+            && self.eps_limit_quanta > 0.0
+            && self.eps_limit_quanta < 32_768.0)
+        {
+            return Err(bad(self.eps_limit_quanta));
+        }
+        Ok(())
+    }
+}
+
+/// Why a model was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Rejection {
+    /// The denominator has complex (or no real) roots.
+    ComplexPole,
+    /// The velocity pole a lies outside the allowed region.
+    PoleOutside(f32),
+    /// b ≤ 0: the sign of the gain is wrong (reversed sensor or drive).
+    GainSign(f32),
+    /// b outside `[gain_min, gain_max]`.
+    GainRange(f32),
+    /// A gain does not fit the fixed-point format.
+    GainFormat,
+    /// The estimator's flags or prediction error distrust the model.
+    Untrusted,
+    /// θ has fewer entries than the orders say.
+    ModelOrder,
+}
+
+/// The first-order velocity model `Δy(k+1) = a·Δy(k) + b·u(k)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VelocityModel {
+    /// Pole a.
+    pub a: f32,
+    /// Gain b, quanta per sample per full scale.
+    pub b: f32,
+}
+
+/// The quantised gains of the seek and settle laws (`Copy`). Each acts on an I16F16 signal in
+/// quanta (per sample) and gives an I32F32 term in full scale.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModelGains {
+    /// Seek Kp on e.
+    pub kp_seek: Gain,
+    /// Seek Kd/2 on the two-sample difference (r(k) − r(k−2)) − (y(k) − y(k−2)).
+    pub kd2_seek: Gain,
+    /// Feedforward (1 − a)/b on r(k) − r(k−1).
+    pub kv_ff: Gain,
+    /// Feedforward 1/b on the reference's second difference.
+    pub ka_ff: Gain,
+    /// Settle Kp on e.
+    pub kp_settle: Gain,
+    /// Settle Kd/2 on y(k) − y(k−2) (subtracted).
+    pub kd2_settle: Gain,
+    /// Settle Ki (per sample) on e.
+    pub ki_settle: Gain,
+}
+
+/// θ = [a₁ … a_na, b₁ …] → the velocity model, with the supervisor's checks.
+///
+/// # Errors
+/// The [`Rejection`] that refused the model.
+#[allow(clippy::float_arithmetic)] // slow-rate design, not the per-sample path
+pub fn reduce(
+    theta: &[ParamI12F20],
+    na: usize,
+    limits: &SupervisorDesign,
+) -> Result<VelocityModel, Rejection> {
+    let f = |i: usize| theta.get(i).map(|p| p.to_f64() as f32);
+    let b_sum: f32 = theta.iter().skip(na).map(|p| p.to_f64() as f32).sum();
+    if theta.len() <= na {
+        return Err(Rejection::ModelOrder);
+    }
+    let (a, b) = match (na, f(0), f(1)) {
+        (1, Some(a1), _) => (-a1, b_sum),
+        (2, Some(a1), Some(a2)) => {
+            let disc = a1 * a1 - 4.0 * a2;
+            if disc < 0.0 {
+                return Err(Rejection::ComplexPole);
+            }
+            let root = libm::sqrtf(disc);
+            let (r1, r2) = ((-a1 + root) / 2.0, (-a1 - root) / 2.0);
+            let a = if libm::fabsf(r1) >= libm::fabsf(r2) {
+                r1
+            } else {
+                r2
+            };
+            let a_poly = 1.0 + a1 + a2;
+            if libm::fabsf(a_poly) < 1e-6 {
+                return Err(Rejection::PoleOutside(a));
+            }
+            (a, (1.0 - a) * b_sum / a_poly)
+        }
+        _ => return Err(Rejection::ModelOrder),
+    };
+    if !(a.is_finite() && f64::from(a) >= limits.pole_min && f64::from(a) <= limits.pole_max) {
+        return Err(Rejection::PoleOutside(a));
+    }
+    if b.is_nan() || b <= 0.0 {
+        return Err(Rejection::GainSign(b));
+    }
+    if f64::from(b) < limits.gain_min || f64::from(b) > limits.gain_max {
+        return Err(Rejection::GainRange(b));
+    }
+    Ok(VelocityModel { a, b })
+}
+
+/// The seek and settle gains placing the poles of [`PlacementDesign`] for `model`.
+///
+/// # Errors
+/// [`Rejection::GainFormat`] when a gain does not fit [`Gain`].
+#[allow(clippy::float_arithmetic)] // slow-rate design, not the per-sample path
+pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelGains, Rejection> {
+    let VelocityModel { a, b } = model;
+    let ps = placement.seek_pole as f32;
+    let pz = placement.settle_pole as f32;
+    let (s1, s2, s3) = (3.0 * pz, 3.0 * pz * pz, pz * pz * pz);
+    let bkd_settle = a - s3;
+    let bkp_settle = 1.0 + 2.0 * s3 - s2;
+    let bki_settle = 2.0 + a - s1 - bkp_settle - bkd_settle;
+    let g = |x: f32| Gain::from_f64(f64::from(x / b)).ok_or(Rejection::GainFormat);
+    let ff = placement.feedforward;
+    Ok(ModelGains {
+        kp_seek: g((1.0 - ps) * (1.0 - ps))?,
+        kd2_seek: g((a - ps * ps) / 2.0)?,
+        kv_ff: if ff { g(1.0 - a)? } else { Gain::ZERO },
+        ka_ff: if ff { g(1.0)? } else { Gain::ZERO },
+        kp_settle: g(bkp_settle)?,
+        kd2_settle: g(bkd_settle / 2.0)?,
+        ki_settle: g(bki_settle.max(0.0))?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64) -> ParamI12F20 {
+        ParamI12F20::from_f64(x).unwrap()
+    }
+
+    #[test]
+    fn reduction_of_first_and_second_order_models() {
+        let l = SupervisorDesign::default();
+        let m = reduce(&[p(-0.83), p(23.7)], 1, &l).unwrap();
+        assert!((m.a - 0.83).abs() < 1e-5 && (m.b - 23.7).abs() < 1e-4);
+        // (z − 0.8)(z − 0.1) = z² − 0.9z + 0.08; B(1) = 10, A(1) = 0.18: DC gain 55.6, b = 11.1.
+        let m = reduce(&[p(-0.9), p(0.08), p(6.0), p(4.0)], 2, &l).unwrap();
+        assert!((m.a - 0.8).abs() < 1e-4, "{m:?}");
+        assert!((m.b - 0.2 * 10.0 / 0.18).abs() < 1e-2, "{m:?}");
+        assert_eq!(
+            reduce(&[p(-0.83), p(-23.7)], 1, &l),
+            Err(Rejection::GainSign(-23.7))
+        );
+        assert!(matches!(
+            reduce(&[p(-1.2), p(23.7)], 1, &l),
+            Err(Rejection::PoleOutside(_))
+        ));
+        assert_eq!(
+            reduce(&[p(0.0), p(0.5), p(1.0), p(1.0)], 2, &l),
+            Err(Rejection::ComplexPole)
+        );
+        assert!(matches!(
+            reduce(&[p(-0.8), p(5000.0 / 4.0)], 1, &l),
+            Err(Rejection::GainRange(_))
+        ));
+        assert_eq!(reduce(&[p(-0.8)], 1, &l), Err(Rejection::ModelOrder));
+    }
+
+    #[test]
+    fn placement_gives_the_closed_forms() {
+        let g = place(
+            VelocityModel { a: 0.83, b: 23.7 },
+            &PlacementDesign::default(),
+        )
+        .unwrap();
+        let close = |x: Gain, y: f64| (x.to_f64() - y).abs() < 1e-6 * y.abs().max(1.0);
+        assert!(close(g.kp_seek, 0.25 / 23.7));
+        assert!(close(g.kd2_seek, (0.83 - 0.25) / 2.0 / 23.7));
+        assert!(close(g.ka_ff, 1.0 / 23.7));
+        let (s1, s2, s3) = (2.1, 3.0 * 0.7 * 0.7, 0.7f64.powi(3));
+        assert!(close(g.kp_settle, (1.0 + 2.0 * s3 - s2) / 23.7));
+        let bki = 2.0 + 0.83 - s1 - (1.0 + 2.0 * s3 - s2) - (0.83 - s3);
+        assert!((g.ki_settle.to_f64() - bki / 23.7).abs() < 1e-6);
+        assert!(
+            PlacementDesign {
+                settle_pole: 1.0,
+                ..PlacementDesign::default()
+            }
+            .validate()
+            .is_err()
+        );
+        assert!(
+            SupervisorDesign {
+                pole_max: 0.1,
+                ..SupervisorDesign::default()
+            }
+            .validate()
+            .is_err()
+        );
+    }
+}

@@ -1,0 +1,211 @@
+//! The regions of a step response and the selector that chooses between them, with hysteresis.
+//!
+//! The paper (§3, Figure 4; §6) splits a step response into the seek, where the sled follows a
+//! moving reference, the end of the step, where "the oscillations … limit the access time", and
+//! the ±1-quantum limit cycle at the constant reference, which the lens loop absorbs — and
+//! concludes that different models, and so different controllers, belong to different parts of
+//! a step. [`RegionSelector::select`] makes that split per sample from integers only:
+//!
+//! ```text
+//! moving  = |r(k) − r(k−1)| > m                          (reference phase)
+//! Seek    ← moving  or  |e| > S_leave
+//! Settle  ← (from Seek)   not moving and |e| ≤ S_enter
+//!           (from Hold)   |e| > H_leave
+//! Hold    ← (from Settle) |e| ≤ H_enter and |y(k) − y(k−2)| ≤ v_H   (at rest inside the band)
+//! ```
+//! with `H_enter ≤ H_leave < S_enter ≤ S_leave`: a region is left only across a wider band than
+//! the one it was entered through, so quantisation noise of one quantum cannot make it chatter.
+//!
+//! # Formats
+//! Every threshold is an I16F16 raw value in quanta (per sample for m and v_H), compared with the
+//! same-format error e, two-sample position difference and reference increment: no arithmetic,
+//! only comparisons of absolute values (`unsigned_abs`, so `i32::MIN` is safe).
+
+#![deny(clippy::float_arithmetic)]
+
+use super::ConfigError;
+use crate::fixed::SignalI16F16;
+
+/// The part of a step response the controller is in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Region {
+    /// Large error or moving reference: track the reference (feedforward + fast PD).
+    #[default]
+    Seek,
+    /// A few quanta of error at a constant reference: the model-based PID with compensation.
+    Settle,
+    /// At rest within the dead band: output held, integrator frozen (no limit cycle).
+    Hold,
+}
+
+impl Region {
+    /// 0, 1, 2 (for traces and plots).
+    pub const fn index(self) -> u8 {
+        match self {
+            Self::Seek => 0,
+            Self::Settle => 1,
+            Self::Hold => 2,
+        }
+    }
+
+    /// The name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Seek => "seek",
+            Self::Settle => "settle",
+            Self::Hold => "hold",
+        }
+    }
+}
+
+/// The region thresholds in quanta (per sample for speeds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionDesign {
+    /// S_enter: Seek → Settle once the reference is constant and |e| ≤ this.
+    pub settle_enter_quanta: f64,
+    /// S_leave: back to Seek when |e| > this.
+    pub settle_leave_quanta: f64,
+    /// H_enter: Settle → Hold when |e| ≤ this and the sled is at rest.
+    pub hold_enter_quanta: f64,
+    /// H_leave: Hold → Settle when |e| > this.
+    pub hold_leave_quanta: f64,
+    /// v_H: "at rest" is |y(k) − y(k−2)| ≤ this, quanta.
+    pub hold_speed_quanta: f64,
+    /// m: the reference is moving while |r(k) − r(k−1)| > this, quanta per sample.
+    pub moving_quanta: f64,
+}
+
+impl Default for RegionDesign {
+    fn default() -> Self {
+        Self {
+            settle_enter_quanta: 24.0,
+            settle_leave_quanta: 48.0,
+            hold_enter_quanta: 0.0,
+            hold_leave_quanta: 1.0,
+            hold_speed_quanta: 1.0,
+            moving_quanta: 0.0,
+        }
+    }
+}
+
+/// The quantised thresholds (`Copy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RegionSelector {
+    settle_enter: u32,
+    settle_leave: u32,
+    hold_enter: u32,
+    hold_leave: u32,
+    hold_speed: u32,
+    moving: u32,
+}
+
+impl RegionDesign {
+    /// Validates and quantises.
+    ///
+    /// # Errors
+    /// [`ConfigError::RegionThreshold`] naming the first value that is not finite, negative, out of
+    /// the I16F16 range, or out of order (`H_enter ≤ H_leave < S_enter ≤ S_leave`).
+    pub fn build(&self) -> Result<RegionSelector, ConfigError> {
+        let q = |v: f64| match SignalI16F16::from_f64(v) {
+            Ok(s) if s.raw() >= 0 => Ok(s.raw().unsigned_abs()),
+            _ => Err(ConfigError::RegionThreshold(v)),
+        };
+        let s = RegionSelector {
+            settle_enter: q(self.settle_enter_quanta)?,
+            settle_leave: q(self.settle_leave_quanta)?,
+            hold_enter: q(self.hold_enter_quanta)?,
+            hold_leave: q(self.hold_leave_quanta)?,
+            hold_speed: q(self.hold_speed_quanta)?,
+            moving: q(self.moving_quanta)?,
+        };
+        if s.settle_leave < s.settle_enter {
+            return Err(ConfigError::RegionThreshold(self.settle_leave_quanta));
+        }
+        if s.hold_leave < s.hold_enter {
+            return Err(ConfigError::RegionThreshold(self.hold_leave_quanta));
+        }
+        if s.settle_enter <= s.hold_leave {
+            return Err(ConfigError::RegionThreshold(self.settle_enter_quanta));
+        }
+        Ok(s)
+    }
+}
+
+impl RegionSelector {
+    /// The region for this sample from the previous one, the error e = r − y, the two-sample
+    /// position difference y(k) − y(k−2) and the reference increment r(k) − r(k−1) (all I16F16
+    /// raw, quanta).
+    pub fn select(&self, previous: Region, e: i32, dy2: i32, dr1: i32) -> Region {
+        let abs_e = e.unsigned_abs();
+        if dr1.unsigned_abs() > self.moving || abs_e > self.settle_leave {
+            return Region::Seek;
+        }
+        match previous {
+            Region::Seek if abs_e <= self.settle_enter => Region::Settle,
+            Region::Seek => Region::Seek,
+            Region::Settle if abs_e <= self.hold_enter && dy2.unsigned_abs() <= self.hold_speed => {
+                Region::Hold
+            }
+            Region::Settle => Region::Settle,
+            Region::Hold if abs_e > self.hold_leave => Region::Settle,
+            Region::Hold => Region::Hold,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const Q: i32 = 1 << 16;
+
+    #[test]
+    fn hysteresis_and_phases() {
+        let s = RegionDesign::default().build().unwrap();
+        // A moving reference is a seek whatever the error.
+        assert_eq!(s.select(Region::Hold, 0, 0, 1), Region::Seek);
+        // Constant reference, 30 quanta: stays in seek (> S_enter) but a settle at 30 stays.
+        assert_eq!(s.select(Region::Seek, 30 * Q, 0, 0), Region::Seek);
+        assert_eq!(s.select(Region::Settle, 30 * Q, 0, 0), Region::Settle);
+        assert_eq!(s.select(Region::Seek, 20 * Q, 0, 0), Region::Settle);
+        assert_eq!(s.select(Region::Settle, 49 * Q, 0, 0), Region::Seek);
+        // Hold needs rest inside the band; it is left beyond H_leave only.
+        assert_eq!(s.select(Region::Settle, 0, 2 * Q, 0), Region::Settle);
+        assert_eq!(s.select(Region::Settle, Q, 0, 0), Region::Settle);
+        assert_eq!(s.select(Region::Settle, 0, -Q, 0), Region::Hold);
+        assert_eq!(s.select(Region::Hold, Q, 3 * Q, 0), Region::Hold);
+        assert_eq!(s.select(Region::Hold, 2 * Q, 0, 0), Region::Settle);
+        assert_eq!(s.select(Region::Hold, i32::MIN, i32::MIN, 0), Region::Seek);
+    }
+
+    #[test]
+    fn build_checks_order_and_range() {
+        let ok = RegionDesign::default();
+        for bad in [
+            RegionDesign {
+                settle_leave_quanta: 10.0,
+                ..ok
+            },
+            RegionDesign {
+                hold_enter_quanta: 2.0,
+                ..ok
+            },
+            RegionDesign {
+                hold_leave_quanta: 30.0,
+                ..ok
+            },
+            RegionDesign {
+                moving_quanta: -1.0,
+                ..ok
+            },
+            RegionDesign {
+                settle_enter_quanta: f64::NAN,
+                ..ok
+            },
+        ] {
+            assert!(matches!(bad.build(), Err(ConfigError::RegionThreshold(_))));
+        }
+    }
+}

@@ -1,0 +1,489 @@
+//! The gain-scheduled position controller: seek / settle / hold laws chosen per sample by
+//! [`RegionSelector`], settle and seek gains placed on-line from the identified model
+//! ([`super::design`]), an inverse input map for the identified static nonlinearity
+//! ([`InverseInputMap`]), and a supervisor that falls back to the baseline PID
+//! ([`PidConfig`]) whenever the model is not trusted.
+//!
+//! # Law (per sample k; positions in quanta, u in full scale)
+//! ```text
+//! e = r − y,  d_y = y(k) − y(k−2),  d_r = r(k) − r(k−2),  v_r = r(k) − r(k−1),  Δv_r = v_r(k) − v_r(k−1)
+//! Seek:    v = Kp_s·e + Kd_s/2·(d_r − d_y) + (1 − a)/b·v_r + Δv_r/b + I,   I ← I − I/2⁴ (fades)
+//! Settle:  v = Kp_z·e − Kd_z/2·d_y + I,   I ← clamp(I + Ki_z·e, ±I_max)   (conditional integration)
+//! Hold:    u = u_hold,  I frozen                                           (dead band: no limit cycle)
+//! u = clamp(h⁻¹(v), ±u_max)                                                (compensation optional)
+//! ```
+//! The paper (§3, Fig. 4) shows the baseline's ±1-quantum limit cycle is controller-induced and
+//! that the lens loop takes up the residual error: Hold stops driving the sled inside the band and
+//! lets static friction hold it.
+//!
+//! **Transfers.** Entering Seek or Settle from another law re-initialises I so that v is
+//! continuous (`I = v(k−1) − terms(k)`, clamped to ±I_max; [`ScheduledFlags::TRANSFER_LIMITED`]
+//! when the clamp binds). Leaving Hold resumes with the frozen integrator. Entering the fallback
+//! primes the baseline PID in manual at the last output (its own bumpless enable), returning
+//! from it re-initialises I from `h(u(k−1))`.
+//!
+//! **Supervisor.** A bad estimator flag ([`Status::COVARIANCE_SATURATED`], `SATURATED`,
+//! `SENSOR_STUCK`, `INPUT_REJECTED`, `OUTLIER`) distrusts the model for `untrusted_hold_samples`;
+//! a running mean of |ε| (time constant 32 samples) above `eps_limit_quanta` distrusts it while it
+//! lasts; [`ScheduledConfig::redesign`] refuses models outside the allowed region. In any of
+//! these the baseline PID runs and [`ScheduledFlags::FALLBACK`] is set.
+//!
+//! # Formats
+//! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`],
+//! terms and I in I32F32 (`i64`, each term < 2⁶², sums saturating), u I16F16. The running mean of
+//! |ε| is a `u32` in I16F16 (`m ← m − m/32 + |ε|/32`, never above max |ε|).
+//!
+//! # Accuracy
+//! Against the float64 law (`host-tests/src/reference/scheduled.rs`) in the twin's closed loop, 30
+//! seeks: identical regions and fallback decisions; |u − u_f64| ≤ 8.9·10⁻⁶ full scale without
+//! compensation (output LSB, gain rounding), ≤ 2.5·10⁻³ with the Coulomb inverse map (the table's
+//! interpolation at the map's steep centre); asserted < 2·10⁻⁵ / < 4·10⁻³
+//! (`fixed_point_matches_float64_in_closed_loop` in `host-tests/tests/scheduled_control.rs`).
+//!
+//! # Cost
+//! `bench_sched_step` (`src/bin/bench.rs`, `cargo xtask cost`, scaffolding subtracted): Cortex-M4F
+//! 575 instructions ≈ 765 cycles, Cortex-M0+ 1,052 ≈ 1,584 cycles (2.3 % / 7.3 % of Ts at 72 / 48
+//! MHz). The redesign (`bench_sched_redesign`, outside the interrupt) ≈ 1,511 / 6,182 instructions.
+
+#![deny(clippy::float_arithmetic)]
+
+use super::compensation::InverseInputMap;
+use super::design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
+use super::pid::{PidConfig, PidDesign, PidState};
+use super::schedule::{Region, RegionDesign, RegionSelector};
+pub use super::supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
+use super::{ConfigError, ControlFlags, i32f32_from_f64};
+use crate::boundary::PositionI48F16;
+use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::status::Status;
+
+/// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduledDesign {
+    /// The baseline PID: the fallback, and Ts, full scale and output limit of the whole controller.
+    pub baseline: PidDesign,
+    /// Region thresholds.
+    pub regions: RegionDesign,
+    /// Closed-loop poles.
+    pub placement: PlacementDesign,
+    /// Allowed model region and estimator health limits.
+    pub supervisor: SupervisorDesign,
+    /// Settle integrator clamp ±I_max, V.
+    pub integrator_limit_v: f64,
+    /// Output while holding, V (0: let static friction hold the sled).
+    pub hold_bias_v: f64,
+    /// Denominator order na of the identifier's θ = [a…, b…] (1 or 2).
+    pub model_na: usize,
+    /// A velocity model (a, b) to start from; `None`: baseline until the first accepted redesign.
+    pub prior_model: Option<(f64, f64)>,
+    /// Inverse of the identified static input map, if any.
+    pub compensation: Option<InverseInputMap>,
+}
+
+impl ScheduledDesign {
+    /// The default schedule around `baseline`, ARX(1, 1) on velocity, no prior, no compensation.
+    pub fn new(baseline: PidDesign) -> Self {
+        Self {
+            baseline,
+            regions: RegionDesign::default(),
+            placement: PlacementDesign::default(),
+            supervisor: SupervisorDesign::default(),
+            integrator_limit_v: 0.1,
+            hold_bias_v: 0.0,
+            model_na: 1,
+            prior_model: None,
+            compensation: None,
+        }
+    }
+
+    /// Validates and quantises; places the prior model's gains if there is one.
+    ///
+    /// # Errors
+    /// The first [`ConfigError`]: the baseline's, a region threshold, a pole, a supervisor limit,
+    /// [`ConfigError::IntegratorLimit`], [`ConfigError::OutputLimit`] (hold bias),
+    /// [`ConfigError::ModelOrder`], or [`ConfigError::InitialModel`] for a prior the supervisor
+    /// refuses.
+    #[allow(clippy::float_arithmetic)] // design time
+    pub fn build(&self) -> Result<ScheduledConfig, ConfigError> {
+        let baseline = self.baseline.build()?;
+        let selector = self.regions.build()?;
+        self.placement.validate()?;
+        self.supervisor.validate()?;
+        let fs = self.baseline.u_full_scale_v;
+        let i_max = i32f32_from_f64(self.integrator_limit_v / fs)
+            .ok_or(ConfigError::IntegratorLimit(self.integrator_limit_v))?;
+        let hold = SignalI16F16::from_f64(self.hold_bias_v / fs)
+            .ok()
+            .filter(|h| h.raw().unsigned_abs() <= baseline.u_limit().raw().unsigned_abs())
+            .ok_or(ConfigError::OutputLimit(self.hold_bias_v))?;
+        if !(1..=2).contains(&self.model_na) {
+            return Err(ConfigError::ModelOrder {
+                na: self.model_na,
+                nb: 1,
+                n: self.model_na + 1,
+            });
+        }
+        let eps_limit = SignalI16F16::from_f64(self.supervisor.eps_limit_quanta)
+            .map_err(|_| ConfigError::SupervisorLimit(self.supervisor.eps_limit_quanta))?;
+        let mut config = ScheduledConfig {
+            baseline,
+            selector,
+            placement: self.placement,
+            supervisor: self.supervisor,
+            gains: ModelGains::default(),
+            fallback: true,
+            integrator_limit_i32f32: i_max,
+            u_limit_i32f32: i64::from(baseline.u_limit().raw()) << 16,
+            hold_bias: hold.raw(),
+            eps_limit: eps_limit.raw().unsigned_abs(),
+            na: self.model_na,
+            compensation: self.compensation,
+        };
+        if let Some((a, b)) = self.prior_model {
+            let model = VelocityModel {
+                a: a as f32,
+                b: b as f32,
+            };
+            // The supervisor's checks apply to the prior too.
+            super::design::reduce(
+                &[
+                    ParamI12F20::from_f64(-a).map_err(|_| ConfigError::InitialModel(a))?,
+                    ParamI12F20::from_f64(b).map_err(|_| ConfigError::InitialModel(b))?,
+                ],
+                1,
+                &self.supervisor,
+            )
+            .map_err(|_| ConfigError::InitialModel(a))?;
+            config.gains = super::design::place(model, &self.placement)
+                .map_err(|_| ConfigError::InitialModel(b))?;
+            config.fallback = false;
+        }
+        Ok(config)
+    }
+}
+
+/// Validated configuration (`Copy`): swapped by [`ScheduledConfig::redesign`] between samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScheduledConfig {
+    baseline: PidConfig,
+    selector: RegionSelector,
+    placement: PlacementDesign,
+    supervisor: SupervisorDesign,
+    gains: ModelGains,
+    /// The model was refused (or none yet): the baseline runs.
+    fallback: bool,
+    integrator_limit_i32f32: i64,
+    u_limit_i32f32: i64,
+    hold_bias: i32,
+    eps_limit: u32,
+    na: usize,
+    compensation: Option<InverseInputMap>,
+}
+
+/// Everything a step mutates.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScheduledState {
+    y1: i64,
+    y2: i64,
+    r1: i64,
+    r2: i64,
+    dr1_previous: i32,
+    integral_i32f32: i64,
+    /// The linear command v of the last sample (before h⁻¹), I32F32.
+    last_v_i32f32: i64,
+    last_u: i32,
+    region: Region,
+    primed: bool,
+    in_fallback: bool,
+    pid: PidState,
+    untrusted: u16,
+    eps_mean: u32,
+    trusted_updates: u32,
+    redesign_pending: bool,
+}
+
+impl Default for ScheduledState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ScheduledState {
+    /// A fresh state: Seek, unprimed, nothing distrusted.
+    pub const fn new() -> Self {
+        Self {
+            y1: 0,
+            y2: 0,
+            r1: 0,
+            r2: 0,
+            dr1_previous: 0,
+            integral_i32f32: 0,
+            last_v_i32f32: 0,
+            last_u: 0,
+            region: Region::Seek,
+            primed: false,
+            in_fallback: false,
+            pid: PidState::new(),
+            untrusted: 0,
+            eps_mean: 0,
+            trusted_updates: 0,
+            redesign_pending: false,
+        }
+    }
+
+    /// Back to [`ScheduledState::new`].
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    /// The region of the last step.
+    pub fn region(&self) -> Region {
+        self.region
+    }
+
+    /// A redesign is due (set on Seek → Settle, cleared by [`ScheduledConfig::redesign`]).
+    pub fn redesign_pending(&self) -> bool {
+        self.redesign_pending
+    }
+
+    /// The settle integrator, fraction of full scale.
+    pub fn integral(&self) -> SignalI16F16 {
+        SignalI16F16::from_raw(sat_i32(shr_round_i64(self.integral_i32f32, 16), &mut false))
+    }
+
+    /// The running mean of |ε|, quanta per sample.
+    pub fn eps_mean(&self) -> SignalI16F16 {
+        SignalI16F16::from_raw(sat_i32(i64::from(self.eps_mean), &mut false))
+    }
+}
+
+/// The result of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScheduledOutput {
+    /// The drive, fraction of full scale, |u| ≤ u_max.
+    pub u: SignalI16F16,
+    /// The region this sample.
+    pub region: Region,
+    /// What happened.
+    pub flags: ScheduledFlags,
+}
+
+impl ScheduledConfig {
+    /// A fresh state.
+    pub const fn new_state(&self) -> ScheduledState {
+        ScheduledState::new()
+    }
+
+    /// The gains in use.
+    pub fn gains(&self) -> &ModelGains {
+        &self.gains
+    }
+
+    /// True while the model is refused (or none was accepted yet).
+    pub fn fallback(&self) -> bool {
+        self.fallback
+    }
+
+    /// The baseline PID (the fallback).
+    pub fn baseline(&self) -> &PidConfig {
+        &self.baseline
+    }
+
+    /// The compensation map, if any.
+    pub fn compensation(&self) -> Option<&InverseInputMap> {
+        self.compensation.as_ref()
+    }
+
+    /// The slow-rate gain design (call outside the sample interrupt when
+    /// [`ScheduledState::redesign_pending`]): the identifier's θ = [a₁ … a_na, b…] → checked
+    /// velocity model → placed gains. Refusal latches the fallback until a model is accepted.
+    pub fn redesign(&mut self, state: &mut ScheduledState, theta: &[ParamI12F20]) -> Redesign {
+        state.redesign_pending = false;
+        if state.untrusted > 0 || state.eps_mean > self.eps_limit {
+            self.fallback = true;
+            return Redesign::Rejected(Rejection::Untrusted);
+        }
+        if state.trusted_updates == 0 {
+            return Redesign::Skipped;
+        }
+        state.trusted_updates = 0;
+        let designed = super::design::reduce(theta, self.na, &self.supervisor)
+            .and_then(|m| super::design::place(m, &self.placement).map(|g| (m, g)));
+        match designed {
+            Ok((model, gains)) => {
+                self.gains = gains;
+                self.fallback = false;
+                Redesign::Applied(model)
+            }
+            Err(r) => {
+                self.fallback = true;
+                Redesign::Rejected(r)
+            }
+        }
+    }
+
+    /// Supervisor bookkeeping of one identifier report; true when it distrusts the model now.
+    fn supervise(&self, state: &mut ScheduledState, report: &ModelReport) -> bool {
+        let bad = report.status.intersects(DISTRUST);
+        state.untrusted = if bad {
+            self.supervisor.untrusted_hold_samples
+        } else {
+            state.untrusted.saturating_sub(1)
+        };
+        if report
+            .status
+            .intersects(Status::UPDATED.union(Status::DEAD_ZONE))
+        {
+            let abs = report.eps.raw().unsigned_abs();
+            // m − m/32 + |ε|/32 ≤ max(m, |ε|): no overflow.
+            state.eps_mean = state.eps_mean - (state.eps_mean >> 5) + (abs >> 5);
+        }
+        if report.status.contains(Status::UPDATED) && !bad {
+            state.trusted_updates = state.trusted_updates.saturating_add(1);
+        }
+        state.untrusted > 0 || state.eps_mean > self.eps_limit
+    }
+
+    /// One sample: reference and measurement (quanta) and the identifier's report in, the drive
+    /// out. The only data path; never panics; |u| ≤ u_max for every input.
+    pub fn step(
+        &self,
+        state: &mut ScheduledState,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        report: &ModelReport,
+    ) -> ScheduledOutput {
+        let mut flags = ScheduledFlags::NONE;
+        let mut sat = false;
+        if !state.primed {
+            state.primed = true;
+            (state.y1, state.y2, state.r1, state.r2) = (y.raw(), y.raw(), r.raw(), r.raw());
+            state.dr1_previous = 0;
+            flags.insert(ScheduledFlags::FIRST_SAMPLE);
+        }
+        let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut sat);
+        let dy2 = sat_i32(y.raw().saturating_sub(state.y2), &mut sat);
+        let dr2 = sat_i32(r.raw().saturating_sub(state.r2), &mut sat);
+        let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
+        let ar = dr1.saturating_sub(state.dr1_previous);
+        (state.y2, state.y1, state.r2, state.r1) = (state.y1, y.raw(), state.r1, r.raw());
+        state.dr1_previous = dr1;
+        let distrusted = self.supervise(state, report);
+        flags.set_if(ScheduledFlags::MODEL_UNTRUSTED, distrusted);
+        let previous = state.region;
+        let region = self.selector.select(previous, e, dy2, dr1);
+        state.region = region;
+        let changed = region != previous;
+        flags.set_if(ScheduledFlags::REGION_CHANGED, changed);
+        if changed && previous == Region::Seek && region == Region::Settle {
+            state.redesign_pending = true;
+            flags.insert(ScheduledFlags::REDESIGN_REQUESTED);
+        }
+        if self.fallback || distrusted {
+            flags.insert(ScheduledFlags::FALLBACK);
+            let entering = !state.in_fallback;
+            state.in_fallback = true;
+            if entering {
+                // The baseline's own bumpless enable: one manual step at the last output.
+                state.pid.reset();
+                state.pid.set_enabled(false);
+                state
+                    .pid
+                    .set_manual_output(SignalI16F16::from_raw(state.last_u));
+            }
+            let out = self.baseline.step(&mut state.pid, r, y);
+            state.pid.set_enabled(true);
+            flags.set_if(
+                ScheduledFlags::OUTPUT_SATURATED,
+                out.flags.contains(ControlFlags::OUTPUT_SATURATED),
+            );
+            sat |= out.flags.contains(ControlFlags::ARITHMETIC_SATURATED);
+            flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
+            state.last_u = out.u.raw();
+            state.last_v_i32f32 = i64::from(self.forward(out.u.raw())) << 16;
+            return ScheduledOutput {
+                u: out.u,
+                region,
+                flags,
+            };
+        }
+        let returning = state.in_fallback;
+        state.in_fallback = false;
+        let g = &self.gains;
+        let i_max = self.integrator_limit_i32f32;
+        let (terms, integrating) = match region {
+            Region::Hold => {
+                state.last_u = self.hold_bias;
+                state.last_v_i32f32 = i64::from(self.forward(self.hold_bias)) << 16;
+                flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
+                return ScheduledOutput {
+                    u: SignalI16F16::from_raw(self.hold_bias),
+                    region,
+                    flags,
+                };
+            }
+            // Each term < 2^62 in magnitude; four of them are summed saturating.
+            Region::Seek => (
+                g.kp_seek
+                    .apply(e)
+                    .saturating_add(g.kd2_seek.apply(dr2.saturating_sub(dy2)))
+                    .saturating_add(g.kv_ff.apply(dr1))
+                    .saturating_add(g.ka_ff.apply(ar)),
+                false,
+            ),
+            Region::Settle => (
+                g.kp_settle.apply(e).saturating_sub(g.kd2_settle.apply(dy2)),
+                true,
+            ),
+        };
+        if returning || (changed && previous != Region::Hold) {
+            let wanted = state.last_v_i32f32.saturating_sub(terms);
+            state.integral_i32f32 = wanted.clamp(-i_max, i_max);
+            flags.set_if(
+                ScheduledFlags::TRANSFER_LIMITED,
+                state.integral_i32f32 != wanted,
+            );
+        } else if integrating {
+            let prev = state.integral_i32f32;
+            let wanted = prev.saturating_add(g.ki_settle.apply(e));
+            let candidate = wanted.clamp(-i_max, i_max);
+            flags.set_if(ScheduledFlags::INTEGRATOR_LIMITED, candidate != wanted);
+            let v = terms.saturating_add(candidate);
+            let u_max = self.u_limit_i32f32;
+            let winding = (v > u_max && candidate > prev) || (v < -u_max && candidate < prev);
+            if winding {
+                flags.insert(ScheduledFlags::INTEGRATION_HELD);
+            } else {
+                state.integral_i32f32 = candidate;
+            }
+        } else {
+            // Seek: the transfer term fades with a time constant of 16 samples.
+            state.integral_i32f32 -= state.integral_i32f32 >> 4;
+        }
+        let v = terms.saturating_add(state.integral_i32f32);
+        let v_i16f16 = sat_i32(shr_round_i64(v, 16), &mut sat);
+        let u_raw = match &self.compensation {
+            Some(map) => map.apply(v_i16f16),
+            None => v_i16f16,
+        };
+        let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
+        let u = u_raw.clamp(-u_max, u_max);
+        flags.set_if(ScheduledFlags::OUTPUT_SATURATED, u != u_raw);
+        flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
+        state.last_v_i32f32 = v;
+        state.last_u = u;
+        ScheduledOutput {
+            u: SignalI16F16::from_raw(u),
+            region,
+            flags,
+        }
+    }
+
+    /// h(u) of the compensation map (the identity without one), I16F16 raw.
+    fn forward(&self, u: i32) -> i32 {
+        self.compensation.as_ref().map_or(u, |m| m.forward(u))
+    }
+}
