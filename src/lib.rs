@@ -30,6 +30,7 @@ pub mod neuron;
 pub mod nonlinear;
 pub mod regressor;
 pub mod rls;
+pub mod sled_loop;
 pub mod stability;
 pub mod status;
 pub mod step;

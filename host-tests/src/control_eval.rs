@@ -16,15 +16,13 @@
 //!   of a faster-than-reference seek, which the reference does not ask for).
 
 use serde::Serialize;
-use sledid::boundary::Sample;
 use sledid::conditioning::Conditioning;
-use sledid::control::{
-    InverseInputMap, ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign,
-    ScheduledFlags, ScheduledState,
-};
-use sledid::linear::{LinearDesign, Structure};
+use sledid::control::{InverseInputMap, Redesign, Region, ScheduledDesign, ScheduledFlags};
+use sledid::linear::{Estimate, LinearDesign, Structure};
+use sledid::nonlinear::NonlinearDesign;
 use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierConfig, IdentifierDesign, IdentifierState, step};
+use sledid::sled_loop::{LoopConfig, LoopDesign, LoopState, WIENER_N};
+use sledid::step::IdentifierDesign;
 use std::path::Path;
 
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
@@ -86,42 +84,56 @@ pub fn scheduled_design(params: &TwinParams) -> Result<ScheduledDesign, String> 
     Ok(d)
 }
 
-/// The scheduled controller and the identifier behind the twin's controller interface.
+/// The firmware's whole per-sample step ([`sledid::sled_loop`]: scheduled controller, its
+/// velocity identifier, optionally the Wiener model at 2·Ts) behind the twin's controller
+/// interface; the redesign runs after the sample that requests it, as the firmware's main loop
+/// would before the next interrupt.
 pub struct ScheduledLoop {
-    /// The controller configuration (swapped by redesigns).
-    pub config: ScheduledConfig,
-    /// The controller state.
-    pub state: ScheduledState,
-    identifier: IdentifierConfig<2>,
-    id_state: IdentifierState<2>,
-    report: ModelReport,
+    /// The loop configuration (its controller gains swapped by redesigns).
+    pub config: LoopConfig,
+    /// The loop state.
+    pub state: LoopState,
     u_full_scale_v: f64,
     /// Per sample: the region and flags.
     pub trace: Vec<(Region, ScheduledFlags)>,
     /// Every redesign outcome.
     pub redesigns: Vec<Redesign>,
+    /// The Wiener estimator's output of the last sample (every second sample).
+    pub last_wiener: Option<Estimate>,
 }
 
 impl ScheduledLoop {
-    /// From a design and the identifier's design.
+    /// From a design and the identifier's design (no Wiener model).
     pub fn new(design: &ScheduledDesign, identifier: &IdentifierDesign<2>) -> Result<Self, String> {
-        let config = design.build().map_err(|e| e.to_string())?;
-        let identifier = identifier.build().map_err(|e| e.to_string())?;
+        Self::with_wiener(design, identifier, None)
+    }
+
+    /// As [`Self::new`], with the Wiener model identified beside the controller at 2·Ts.
+    pub fn with_wiener(
+        design: &ScheduledDesign,
+        identifier: &IdentifierDesign<2>,
+        wiener: Option<NonlinearDesign<WIENER_N>>,
+    ) -> Result<Self, String> {
+        let config = LoopDesign {
+            controller: *design,
+            velocity: *identifier,
+            wiener,
+        }
+        .build()
+        .map_err(|e| e.to_string())?;
         Ok(Self {
-            config,
             state: config.new_state(),
-            id_state: identifier.new_state(),
-            identifier,
-            report: ModelReport::default(),
+            config,
             u_full_scale_v: design.baseline.u_full_scale_v,
             trace: Vec::new(),
             redesigns: Vec::new(),
+            last_wiener: None,
         })
     }
 
     /// The identifier's θ now.
     pub fn theta(&self) -> [f64; 2] {
-        self.id_state.model().theta().map(|p| p.to_f64())
+        self.state.velocity().model().theta().map(|p| p.to_f64())
     }
 }
 
@@ -131,22 +143,13 @@ impl SledController for ScheduledLoop {
             position_from_quanta(r_counts),
             position_from_quanta(y_counts),
         );
-        let out = self.config.step(&mut self.state, r, y, &self.report);
-        // The identifier sees what the firmware would: y(k), the command u(k), r(k).
-        let id = step(
-            &self.identifier,
-            &mut self.id_state,
-            &Sample { y, u: out.u, r },
-        );
-        self.report = ModelReport {
-            status: id.status,
-            eps: id.eps,
-        };
+        let out = self.config.step(&mut self.state, r, y);
         if self.state.redesign_pending() {
-            let outcome = self.config.redesign(&mut self.state, &id.theta);
+            let outcome = self.config.redesign(&mut self.state);
             self.redesigns.push(outcome);
         }
-        self.trace.push((out.region, out.flags));
+        self.trace.push((out.region, out.control));
+        self.last_wiener = out.wiener;
         out.u.to_f64() * self.u_full_scale_v
     }
 }

@@ -260,8 +260,8 @@ pub struct ScheduledBench {
 }
 
 impl ScheduledBench {
-    /// Builds the scenario.
-    pub fn new() -> Option<Self> {
+    /// The controller design of the scenario.
+    pub fn design() -> Option<ScheduledDesign> {
         let baseline = PidDesign {
             kp_v_per_quantum: 0.015,
             ki_v_per_quantum_s: 200.0,
@@ -272,8 +272,13 @@ impl ScheduledBench {
         };
         let mut design = ScheduledDesign::new(baseline);
         design.prior_model = Some((0.8336, 23.66));
-        design.compensation = InverseInputMap::coulomb(0.0075, 0.9, 0.05).ok();
-        let config = design.build().ok()?;
+        design.compensation = Some(InverseInputMap::coulomb(0.0075, 0.9, 0.05).ok()?);
+        Some(design)
+    }
+
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let config = Self::design()?.build().ok()?;
         Some(Self {
             config,
             state: ScheduledState::new(),
@@ -303,10 +308,62 @@ impl ScheduledBench {
     }
 }
 
+/// The firmware's whole per-sample step (`sledid::sled_loop`): scheduled controller + supervisor,
+/// ARX(1,1) velocity identifier, two-channel half-band decimator, the Wiener model every second
+/// call (the mean over both phases is the per-sample cost). Same scenario as [`ScheduledBench`].
+pub struct LoopBench {
+    config: sledid::sled_loop::LoopConfig,
+    state: sledid::sled_loop::LoopState,
+}
+
+impl LoopBench {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let controller = ScheduledBench::design()?;
+        let mut velocity_model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
+        velocity_model.theta0 = [-0.8336, 23.66];
+        velocity_model.rls = rls_design();
+        let velocity = sledid::step::IdentifierDesign::new(
+            sledid::conditioning::Conditioning::DifferencedOutput,
+            velocity_model,
+        );
+        let mut wiener = NonlinearDesign::<5>::from_linear(
+            NonlinearStructure::Wiener,
+            &[-0.9, 5.0],
+            InputRanges {
+                u: 0.2,
+                y: 20.0,
+                dy: 2.0,
+            },
+        );
+        wiener.rls = rls_design();
+        let config = sledid::sled_loop::LoopDesign {
+            controller,
+            velocity,
+            wiener: Some(wiener),
+        }
+        .build()
+        .ok()?;
+        Some(Self {
+            state: config.new_state(),
+            config,
+        })
+    }
+
+    /// Call `i`: the reference constant, the measurement a table value (±2 quanta) around it.
+    pub fn call(&mut self, i: u32) -> u32 {
+        let r = PositionI48F16::from_counts(300);
+        let y = PositionI48F16::from_raw(r.raw() + i64::from(at(&Y_TABLE, i).raw()));
+        let o = self.config.step(&mut self.state, r, y);
+        (o.u.raw() as u32) ^ u32::from(o.velocity.status.bits())
+    }
+}
+
 #[cfg(target_os = "none")]
 mod target {
     use super::{
-        ArxBench, DecimateBench, NeuronBench, NonlinearBench, PidBench, RlsBench, ScheduledBench,
+        ArxBench, DecimateBench, LoopBench, NeuronBench, NonlinearBench, PidBench, RlsBench,
+        ScheduledBench,
     };
     use core::cell::RefCell;
     use cortex_m_rt::entry;
@@ -326,6 +383,7 @@ mod target {
     static FRICTION: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
     static SCHED: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static REDESIGN: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
+    static LOOP: Mutex<RefCell<Option<LoopBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -353,6 +411,7 @@ mod target {
                 .replace(NonlinearBench::new(NonlinearStructure::FrictionFeedback));
             SCHED.borrow(cs).replace(ScheduledBench::new());
             REDESIGN.borrow(cs).replace(ScheduledBench::new());
+            LOOP.borrow(cs).replace(LoopBench::new());
         });
     }
 
@@ -469,6 +528,11 @@ mod target {
         bench_friction_step,
         FRICTION
     );
+    nonlinear_entry!(
+        /// The firmware's whole step: controller, velocity identifier, decimator, Wiener at 2·Ts.
+        bench_loop_step,
+        LOOP
+    );
 
     /// One gain-scheduled controller step (regions, supervisor, law, inverse map, saturation).
     #[unsafe(no_mangle)]
@@ -496,7 +560,7 @@ mod target {
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 14] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 15] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
@@ -511,6 +575,7 @@ mod target {
         bench_friction_step,
         bench_sched_step,
         bench_sched_redesign,
+        bench_loop_step,
     ];
 
     #[entry]
@@ -570,6 +635,10 @@ fn main() {
                     .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
             };
         println!("{} flags = {acc:?}", s.name());
+    }
+    if let Some(mut lb) = LoopBench::new() {
+        let acc = (0..5000).fold(0u32, |a, i| a.wrapping_add(lb.call(i)));
+        println!("loop checksum = {acc:#x}");
     }
     if let Some(mut pb) = PidBench::new() {
         let p_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(pb.call(i)));

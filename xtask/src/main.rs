@@ -97,7 +97,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 14] = [
+const BENCH_FNS: [&str; 15] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
@@ -112,6 +112,7 @@ const BENCH_FNS: [&str; 14] = [
     "bench_friction_step",
     "bench_sched_step",
     "bench_sched_redesign",
+    "bench_loop_step",
 ];
 
 fn cost() -> bool {

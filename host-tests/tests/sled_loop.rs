@@ -1,0 +1,105 @@
+//! The firmware's whole per-sample step (`sledid::sled_loop`) in the twin's closed loop: the
+//! scheduled controller, its velocity identifier, and the first-order Wiener model identified beside
+//! them at 2·Ts on the decimated, centred position.
+
+use sledid::Status;
+use sledid::control::Region;
+use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::rls::{AntiWindup, RlsDesign};
+use sledid_host::control_eval::{ScheduledLoop, identifier_design, scheduled_design};
+use sledid_host::twin::{Twin, TwinParams};
+
+fn wiener() -> NonlinearDesign<5> {
+    // A settle-phase prior: a first-order pole at 0.9, unit-ish gain; the neuron starts at w = 0.
+    let mut d = NonlinearDesign::<5>::from_linear(
+        NonlinearStructure::Wiener,
+        &[-0.9, 5.0],
+        InputRanges {
+            u: 0.2,
+            y: 20.0,
+            dy: 2.0,
+        },
+    );
+    d.rls = RlsDesign {
+        lambda: 0.999,
+        p0: 10.0,
+        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+        dead_zone: 0.25,
+        ..RlsDesign::default()
+    };
+    d
+}
+
+/// Runs 20 seeks with and without the Wiener model; returns both loops.
+fn run(
+    seed: u64,
+) -> (
+    ScheduledLoop,
+    ScheduledLoop,
+    Vec<(f64, Option<sledid::linear::Estimate>)>,
+) {
+    let params = TwinParams::default();
+    let design = scheduled_design(&params).unwrap();
+    let id = identifier_design(design.prior_model.unwrap());
+    let mut plain = ScheduledLoop::new(&design, &id).unwrap();
+    let mut full = ScheduledLoop::with_wiener(&design, &id, Some(wiener())).unwrap();
+    let mut p = params.clone();
+    p.reference.seek_count = 20;
+    let mut twin_a = Twin::new(p.clone(), seed).unwrap();
+    let mut twin_b = Twin::new(p, seed).unwrap();
+    twin_a.run(&mut plain);
+    // The same closed loop, recording every loop output.
+    let mut outs = Vec::new();
+    let mut k = 0usize;
+    let mut controller = |r: f64, y: f64| {
+        let u = sledid_host::twin::SledController::step(&mut full, r, y);
+        outs.push((u, full.last_wiener));
+        k += 1;
+        u
+    };
+    twin_b.run(&mut controller);
+    let _ = k;
+    (plain, full, outs)
+}
+
+#[test]
+fn wiener_beside_the_controller_observes_without_disturbing() {
+    let (plain, full, outs) = run(3);
+    // The Wiener model is an observer: the drive is bit-identical with and without it.
+    assert_eq!(plain.trace.len(), full.trace.len());
+    assert_eq!(plain.trace, full.trace);
+    // It runs on every second sample, held during seeks, adapting while settling and holding.
+    let ran: Vec<_> = outs
+        .iter()
+        .enumerate()
+        .filter_map(|(k, (_, w))| w.map(|w| (k, w)))
+        .collect();
+    let n = outs.len();
+    assert!(
+        (ran.len() as i64 - (n / 2) as i64).abs() <= 1,
+        "{} of {n}",
+        ran.len()
+    );
+    let mut held_in_seek = 0;
+    let mut seek = 0;
+    for (k, w) in &ran {
+        if full.trace[*k].0 == Region::Seek {
+            seek += 1;
+            held_in_seek += usize::from(w.status.contains(Status::HELD));
+        }
+    }
+    assert_eq!(held_in_seek, seek);
+    let updated = ran
+        .iter()
+        .filter(|(_, w)| w.status.contains(Status::UPDATED))
+        .count();
+    println!(
+        "Wiener: {} decimated samples, {seek} in seeks (held), {updated} updates",
+        ran.len()
+    );
+    assert!(updated > 0);
+    // The Wiener estimate stays a valid, stable model.
+    let th = full.state.wiener().unwrap().theta();
+    assert!(th[0].to_f64().abs() <= 1.0, "{th:?}");
+    println!("Wiener θ = {:?}", th.map(|p| p.to_f64()));
+}

@@ -1,0 +1,188 @@
+//! The firmware's whole per-sample step (issue 6): the gain-scheduled position controller, the
+//! on-line identifier it is designed from, and the paper's best model identified beside them at
+//! half the rate — one function, called by the firmware's timer interrupt, by `sledid control`'s
+//! closed loop on the twin, and by the bench image.
+//!
+//! # One sample k (positions in quanta, u in full scale)
+//! ```text
+//! u(k)      = controller(r(k), y(k), report(k−1))           sledid::control::scheduled (supervisor inside)
+//! report(k) = identifier(y(k), u(k), r(k))                  ARX on velocity: sledid::step::step, N = 2
+//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    sledid::decimate, two channels
+//! every 2nd sample: Wiener(y_c↓2, u↓2)                      sledid::nonlinear, adapting in Settle/Hold only
+//! ```
+//! The paper's conclusion is that different models belong to different parts of a step response:
+//! the velocity ARX model drives the seek/settle gains (it is what pole placement needs), while the
+//! Wiener model — the paper's best, after down-sampling by 2 — learns the settle dynamics around the
+//! reference, where it is valid, so its estimator is held during seeks (it still simulates).
+//!
+//! The slow-rate gain redesign is *not* part of the step: when [`LoopState::redesign_pending`] the
+//! main loop calls [`LoopConfig::redesign`] (f32, outside the interrupt).
+
+use crate::boundary::{PositionI48F16, Sample};
+use crate::control::{
+    ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledState,
+};
+use crate::decimate::{DecimatorConfig, DecimatorState};
+use crate::error::ConfigError;
+use crate::fixed::SignalI16F16;
+use crate::linear::{Estimate, LinearDesign};
+use crate::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
+use crate::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+
+/// Parameters of the controller's identifier (ARX(1,1) on velocity).
+pub const VELOCITY_N: usize = 2;
+/// Parameters of the first-order Wiener model.
+pub const WIENER_N: usize = 5;
+
+/// User-facing settings of the whole loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopDesign {
+    /// The gain-scheduled controller (its baseline PID is the fallback).
+    pub controller: ScheduledDesign,
+    /// The identifier the controller's gains are placed from.
+    pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
+    /// The Wiener model at 2·Ts on the centred position (`None`: not run).
+    pub wiener: Option<NonlinearDesign<WIENER_N>>,
+}
+
+/// Validated configuration of the loop.
+#[derive(Clone, Copy, Debug)]
+pub struct LoopConfig {
+    controller: ScheduledConfig,
+    velocity: IdentifierConfig<VELOCITY_N>,
+    wiener: Option<NonlinearConfig<WIENER_N>>,
+    decimator: DecimatorConfig,
+}
+
+/// Everything one sample mutates.
+#[derive(Clone, Debug)]
+pub struct LoopState {
+    controller: ScheduledState,
+    velocity: IdentifierState<VELOCITY_N>,
+    report: ModelReport,
+    wiener: Option<NonlinearState<WIENER_N>>,
+    decimate_y: DecimatorState,
+    decimate_u: DecimatorState,
+    last_theta: [crate::fixed::ParamI12F20; VELOCITY_N],
+}
+
+/// What one sample produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoopOutput {
+    /// The drive u(k), fraction of full scale.
+    pub u: SignalI16F16,
+    /// The controller's region.
+    pub region: Region,
+    /// The controller's flags (`FALLBACK` when the supervisor distrusts the model).
+    pub control: ScheduledFlags,
+    /// The velocity identifier's output (ŷ, ε, θ, status).
+    pub velocity: StepOutput<VELOCITY_N>,
+    /// The Wiener estimator's output, on every second sample.
+    pub wiener: Option<Estimate>,
+}
+
+impl LoopDesign {
+    /// Validates and quantises every part.
+    ///
+    /// # Errors
+    /// The first part's [`ConfigError`].
+    pub fn build(&self) -> Result<LoopConfig, ConfigError> {
+        Ok(LoopConfig {
+            controller: self.controller.build()?,
+            velocity: self.velocity.build()?,
+            wiener: match &self.wiener {
+                Some(w) => Some(w.build()?),
+                None => None,
+            },
+            decimator: DecimatorConfig::HALF_BAND_23,
+        })
+    }
+}
+
+impl LoopConfig {
+    /// A fresh state.
+    pub fn new_state(&self) -> LoopState {
+        let velocity = self.velocity.new_state();
+        LoopState {
+            controller: self.controller.new_state(),
+            last_theta: *velocity.model().theta(),
+            velocity,
+            report: ModelReport::default(),
+            wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
+            decimate_y: self.decimator.new_state(),
+            decimate_u: self.decimator.new_state(),
+        }
+    }
+
+    /// The controller configuration (gains in use, fallback).
+    pub fn controller(&self) -> &ScheduledConfig {
+        &self.controller
+    }
+
+    /// The slow-rate redesign of the controller's gains from the identifier's latest θ (call from
+    /// the main loop when [`LoopState::redesign_pending`], not from the interrupt).
+    pub fn redesign(&mut self, state: &mut LoopState) -> Redesign {
+        self.controller
+            .redesign(&mut state.controller, &state.last_theta)
+    }
+
+    /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
+    pub fn step(&self, state: &mut LoopState, r: PositionI48F16, y: PositionI48F16) -> LoopOutput {
+        let out = self
+            .controller
+            .step(&mut state.controller, r, y, &state.report);
+        let velocity = step(
+            &self.velocity,
+            &mut state.velocity,
+            &Sample { y, u: out.u, r },
+        );
+        state.report = ModelReport {
+            status: velocity.status,
+            eps: velocity.eps,
+        };
+        state.last_theta = velocity.theta;
+        let mut wiener = None;
+        if let (Some(cfg), Some(st)) = (&self.wiener, state.wiener.as_mut()) {
+            let mut sat = false;
+            let y_c = y.offset_from(r, &mut sat);
+            let dy = self.decimator.push(&mut state.decimate_y, y_c);
+            let du = self.decimator.push(&mut state.decimate_u, out.u);
+            if let (Some(dy), Some(du)) = (dy, du) {
+                st.set_enabled(out.region != Region::Seek);
+                let mut e = cfg.step(st, dy.y, du.y);
+                e.status |= dy.status | du.status;
+                e.status.set_if(crate::status::Status::SATURATED, sat);
+                wiener = Some(e);
+            }
+        }
+        LoopOutput {
+            u: out.u,
+            region: out.region,
+            control: out.flags,
+            velocity,
+            wiener,
+        }
+    }
+}
+
+impl LoopState {
+    /// The controller asks for a gain redesign (a settle phase began after trusted updates).
+    pub fn redesign_pending(&self) -> bool {
+        self.controller.redesign_pending()
+    }
+
+    /// The controller's state.
+    pub fn controller(&self) -> &ScheduledState {
+        &self.controller
+    }
+
+    /// The velocity identifier's state.
+    pub fn velocity(&self) -> &IdentifierState<VELOCITY_N> {
+        &self.velocity
+    }
+
+    /// The Wiener estimator's state, if it runs.
+    pub fn wiener(&self) -> Option<&NonlinearState<WIENER_N>> {
+        self.wiener.as_ref()
+    }
+}
