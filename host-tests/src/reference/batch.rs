@@ -111,3 +111,100 @@ pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
+
+/// What [`levenberg_marquardt`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LmOutcome {
+    /// θ at the minimum found.
+    pub theta: Vec<f64>,
+    /// The criterion there.
+    pub cost: f64,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Trial steps rejected because they left the feasible set.
+    pub rejected_infeasible: usize,
+    /// Whether the search stopped on its tolerance (or found no descent step), not on the limit.
+    pub converged: bool,
+}
+
+/// Levenberg–Marquardt from `theta0`: at each iterate the Gauss–Newton normal equations
+/// `(H, g) = (Σψψᵀ, Σψε)` from `normal_equations`, the step `(H + μ·diag(max(Hᵢᵢ, floor))) d = g`,
+/// accepted when `feasible` and `cost` decreases (μ ÷ 10), else μ × 10; stops when an accepted step
+/// gains less than `tolerance` (relative), when μ > 10¹² (no descent step left: a constrained
+/// minimum) or after `max_iterations` accepted steps.
+pub fn levenberg_marquardt(
+    theta0: Vec<f64>,
+    max_iterations: usize,
+    tolerance: f64,
+    diag_floor: f64,
+    mut normal_equations: impl FnMut(&[f64]) -> (Vec<Vec<f64>>, Vec<f64>),
+    cost: impl Fn(&[f64]) -> f64,
+    feasible: impl Fn(&[f64]) -> bool,
+) -> LmOutcome {
+    let mut theta = theta0;
+    let mut v = cost(&theta);
+    let (mut mu, mut iterations, mut rejected, mut converged) = (1e-3, 0, 0, false);
+    'outer: while iterations < max_iterations {
+        let (h, g) = normal_equations(&theta);
+        loop {
+            let mut hm = h.clone();
+            for (i, row) in hm.iter_mut().enumerate() {
+                row[i] += mu * h[i][i].max(diag_floor);
+            }
+            if let Some(d) = solve(hm, g.clone()) {
+                let c: Vec<f64> = theta.iter().zip(&d).map(|(a, b)| a + b).collect();
+                if !feasible(&c) {
+                    rejected += 1;
+                } else {
+                    let vc = cost(&c);
+                    if vc.is_finite() && vc < v {
+                        let gain = (v - vc) / v.max(f64::MIN_POSITIVE);
+                        theta = c;
+                        v = vc;
+                        iterations += 1;
+                        mu = (mu / 10.0).max(1e-12);
+                        if gain < tolerance {
+                            converged = true;
+                            break 'outer;
+                        }
+                        continue 'outer;
+                    }
+                }
+            }
+            mu *= 10.0;
+            if mu > 1e12 {
+                converged = true;
+                break 'outer;
+            }
+        }
+    }
+    LmOutcome {
+        theta,
+        cost: v,
+        iterations,
+        rejected_infeasible: rejected,
+        converged,
+    }
+}
+
+/// The Gauss–Newton normal equations `(Σψψᵀ, Σψε)` over `t ≥ start`, ε = y − ŷ.
+pub fn normal_equations(
+    y: &[f64],
+    yhat: &[f64],
+    psi: &[Vec<f64>],
+    start: usize,
+    n: usize,
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let mut h = vec![vec![0.0; n]; n];
+    let mut g = vec![0.0; n];
+    for t in start..yhat.len().min(y.len()) {
+        let e = y[t] - yhat[t];
+        for i in 0..n {
+            g[i] += psi[t][i] * e;
+            for j in 0..n {
+                h[i][j] += psi[t][i] * psi[t][j];
+            }
+        }
+    }
+    (h, g)
+}

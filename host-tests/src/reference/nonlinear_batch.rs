@@ -11,7 +11,7 @@
 //! denominator leaves the unit circle or the simulation is not finite. The ridge term is the
 //! over-fitting guard: it pulls the extra parameters toward the linear model on short records.
 
-use super::batch::solve;
+use super::batch::{levenberg_marquardt, normal_equations};
 use super::linear::stable;
 use super::nonlinear::evaluate;
 use sledid::nonlinear::NonlinearStructure;
@@ -123,57 +123,25 @@ pub fn fit(
             .map(|t| (y[t] - yhat[t]).powi(2))
             .sum::<f64>()
     };
-    let mut theta = theta0.to_vec();
-    let mut v = criterion(structure, &theta, theta0, ridge, y, u);
-    let sse_init = sse_of(&theta);
-    let (mut mu, mut iterations, mut converged) = (1e-3, 0, false);
-    'outer: while iterations < MAX_ITERATIONS {
-        let (yhat, psi) = simulate_with_gradient(structure, &theta, y, u);
-        let mut h = vec![vec![0.0; n]; n];
-        let mut g = vec![0.0; n];
-        for t in na..yhat.len() {
-            let e = y[t] - yhat[t];
+    let sse_init = sse_of(theta0);
+    let lm = levenberg_marquardt(
+        theta0.to_vec(),
+        MAX_ITERATIONS,
+        RELATIVE_TOLERANCE,
+        1e-9,
+        |th| {
+            let (yhat, psi) = simulate_with_gradient(structure, th, y, u);
+            let (mut h, mut g) = normal_equations(y, &yhat, &psi, na, n);
             for i in 0..n {
-                g[i] += psi[t][i] * e;
-                for j in 0..n {
-                    h[i][j] += psi[t][i] * psi[t][j];
-                }
+                g[i] -= ridge * (th[i] - theta0[i]);
+                h[i][i] += ridge;
             }
-        }
-        for i in 0..n {
-            g[i] -= ridge * (theta[i] - theta0[i]);
-            h[i][i] += ridge;
-        }
-        loop {
-            let mut hm = h.clone();
-            for (i, row) in hm.iter_mut().enumerate() {
-                row[i] += mu * h[i][i].max(1e-9);
-            }
-            if let Some(d) = solve(hm, g.clone()) {
-                let c: Vec<f64> = theta.iter().zip(&d).map(|(a, b)| a + b).collect();
-                if stable(&c[..na], MAX_POLE) {
-                    let vc = criterion(structure, &c, theta0, ridge, y, u);
-                    if vc.is_finite() && vc < v {
-                        let gain = (v - vc) / v.max(f64::MIN_POSITIVE);
-                        theta = c;
-                        v = vc;
-                        iterations += 1;
-                        mu = (mu / 10.0).max(1e-12);
-                        if gain < RELATIVE_TOLERANCE {
-                            converged = true;
-                            break 'outer;
-                        }
-                        continue 'outer;
-                    }
-                }
-            }
-            mu *= 10.0;
-            if mu > 1e12 {
-                converged = true;
-                break 'outer;
-            }
-        }
-    }
+            (h, g)
+        },
+        |th| criterion(structure, th, theta0, ridge, y, u),
+        |th| stable(&th[..na], MAX_POLE),
+    );
+    let (theta, iterations, converged) = (lm.theta, lm.iterations, lm.converged);
     let sse_final = sse_of(&theta);
     Some(NonlinearFit {
         structure,

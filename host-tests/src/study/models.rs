@@ -20,7 +20,7 @@
 
 use serde::Serialize;
 
-use crate::reference::batch::{least_squares, solve};
+use crate::reference::batch::{least_squares, levenberg_marquardt, normal_equations};
 
 /// Largest pole modulus an unstable ARX fit is projected to before it initialises OE.
 pub const PROJECTION_RADIUS: f64 = 0.99;
@@ -344,59 +344,22 @@ pub fn fit_oe(order: usize, y: &[f64], u: &[f64], arx: &LinearModel) -> Option<O
         let num = refit_num(&den, y, u)?;
         (den, num, OeInit::ProjectedArx)
     };
-    let cost = |den: &[f64], num: &[f64]| sse_from(y, &simulate(den, num, u, y), n);
-    let mut theta: Vec<f64> = den0.iter().chain(&num0).copied().collect();
-    let mut sse = cost(&den0, &num0);
-    let sse_init = sse;
-    let (mut mu, mut iterations, mut rejected_unstable, mut converged) = (1e-3, 0, 0, false);
-    'outer: while iterations < LM_MAX_ITERATIONS {
-        let (yhat, psi) = sensitivities(&theta[..n], &theta[n..], u, y);
-        let p = 2 * n;
-        let mut h = vec![vec![0.0; p]; p];
-        let mut g = vec![0.0; p];
-        for t in n..y.len() {
-            let e = y[t] - yhat[t];
-            for i in 0..p {
-                g[i] += psi[t][i] * e;
-                for j in 0..p {
-                    h[i][j] += psi[t][i] * psi[t][j];
-                }
-            }
-        }
-        loop {
-            let mut hm = h.clone();
-            for (i, row) in hm.iter_mut().enumerate() {
-                row[i] += mu * h[i][i].max(1e-12);
-            }
-            let candidate: Option<Vec<f64>> =
-                solve(hm, g.clone()).map(|d| theta.iter().zip(&d).map(|(a, b)| a + b).collect());
-            match candidate {
-                Some(c) if !is_stable(&c[..n]) => rejected_unstable += 1,
-                Some(c) => {
-                    let s = cost(&c[..n], &c[n..]);
-                    if s < sse {
-                        let gain = (sse - s) / sse.max(f64::MIN_POSITIVE);
-                        theta = c;
-                        sse = s;
-                        iterations += 1;
-                        mu = (mu / 10.0).max(1e-12);
-                        if gain < LM_RELATIVE_TOLERANCE {
-                            converged = true;
-                            break 'outer;
-                        }
-                        continue 'outer;
-                    }
-                }
-                None => {}
-            }
-            mu *= 10.0;
-            if mu > 1e12 {
-                // No descent step left: the current point is a (constrained) minimum.
-                converged = true;
-                break 'outer;
-            }
-        }
-    }
+    let theta0: Vec<f64> = den0.iter().chain(&num0).copied().collect();
+    let cost = |th: &[f64]| sse_from(y, &simulate(&th[..n], &th[n..], u, y), n);
+    let sse_init = cost(&theta0);
+    let lm = levenberg_marquardt(
+        theta0,
+        LM_MAX_ITERATIONS,
+        LM_RELATIVE_TOLERANCE,
+        1e-12,
+        |th| {
+            let (yhat, psi) = sensitivities(&th[..n], &th[n..], u, y);
+            normal_equations(y, &yhat, &psi, n, 2 * n)
+        },
+        cost,
+        |th| is_stable(&th[..n]),
+    );
+    let theta = lm.theta;
     Some(OeFit {
         model: LinearModel {
             spec,
@@ -405,9 +368,9 @@ pub fn fit_oe(order: usize, y: &[f64], u: &[f64], arx: &LinearModel) -> Option<O
         },
         init,
         sse_init,
-        sse_final: sse,
-        iterations,
-        rejected_unstable,
-        converged,
+        sse_final: lm.cost,
+        iterations: lm.iterations,
+        rejected_unstable: lm.rejected_infeasible,
+        converged: lm.converged,
     })
 }
