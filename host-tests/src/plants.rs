@@ -63,6 +63,15 @@ pub fn closed_loop(spec: &ClosedLoopSpec) -> ClosedLoopRecord {
                 y += spec.b[i - 1] * rec.u[t - i];
             }
         }
+        rec.record(spec, &mut rng, r, y);
+    }
+    rec
+}
+
+impl ClosedLoopRecord {
+    /// The sensor and the controller of one sample: quantises y, computes the dithered,
+    /// saturated proportional drive, records everything; returns u.
+    fn record(&mut self, spec: &ClosedLoopSpec, rng: &mut ChaCha8Rng, r: f64, y: f64) -> f64 {
         let yq = y.round();
         let dither = if spec.dither > 0.0 {
             rng.gen_range(-spec.dither..=spec.dither)
@@ -70,12 +79,12 @@ pub fn closed_loop(spec: &ClosedLoopSpec) -> ClosedLoopRecord {
             0.0
         };
         let u = (spec.kp * (r - yq) + dither).clamp(-1.0, 1.0);
-        rec.r.push(r);
-        rec.u.push(u);
-        rec.y.push(yq);
-        rec.y_true.push(y);
+        self.r.push(r);
+        self.u.push(u);
+        self.y.push(yq);
+        self.y_true.push(y);
+        u
     }
-    rec
 }
 
 /// The kind of nonlinearity of a [`nonlinear_closed_loop`] plant, one per nonlinear structure.
@@ -137,18 +146,8 @@ pub fn nonlinear_closed_loop(plant: NonlinearPlant, spec: &ClosedLoopSpec) -> Cl
         let xt = plant.next(x, u_lag);
         x = [xt, x[0]];
         let y = plant.output(xt);
-        let yq = y.round();
-        let dither = if spec.dither > 0.0 {
-            rng.gen_range(-spec.dither..=spec.dither)
-        } else {
-            0.0
-        };
-        let u = (spec.kp * (r - yq) + dither).clamp(-1.0, 1.0);
+        let u = rec.record(spec, &mut rng, r, y);
         u_lag = [u, u_lag[0]];
-        rec.r.push(r);
-        rec.u.push(u);
-        rec.y.push(yq);
-        rec.y_true.push(y);
     }
     rec
 }
