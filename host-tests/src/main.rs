@@ -57,7 +57,7 @@ enum Command {
         out: PathBuf,
     },
     /// Replay recordings through the per-sample step (the firmware's function) and its float64
-    /// reference: DIR/<name>/trace.csv and summary.json. Several files run in parallel.
+    /// reference: DIR/NAME/trace.csv and summary.json. Several files run in parallel.
     Replay(Box<ReplayArgs>),
     /// The paper's linear identification procedure (ARX1, ARX2, OE1, OE2 at Ts and after ÷2) on a
     /// recording, or on a twin recording with the paper's protocol (`--twin`): DIR/study.json and

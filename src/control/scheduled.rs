@@ -29,7 +29,7 @@
 //! these the baseline PID runs and [`ScheduledFlags::FALLBACK`] is set.
 //!
 //! # Formats
-//! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`],
+//! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`](super::Gain),
 //! terms and I in I32F32 (`i64`, each term < 2⁶², sums saturating), u I16F16. The running mean of
 //! |ε| is a `u32` in I16F16 (`m ← m − m/32 + |ε|/32`, never above max |ε|).
 //!

@@ -33,7 +33,7 @@ impl ScheduledFlags {
     pub const FIRST_SAMPLE: Self = Self(1 << 7);
     /// The supervisor distrusts the estimator this sample (flags or prediction error).
     pub const MODEL_UNTRUSTED: Self = Self(1 << 8);
-    /// Seek → Settle: a redesign is due ([`ScheduledConfig::redesign`], slow rate).
+    /// Seek → Settle: a redesign is due ([`ScheduledConfig::redesign`](super::ScheduledConfig::redesign), slow rate).
     pub const REDESIGN_REQUESTED: Self = Self(1 << 9);
 
     /// All flags with their names, in bit order.
