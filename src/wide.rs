@@ -39,6 +39,17 @@ pub fn bit_len_u64(x: u64) -> i32 {
     }
 }
 
+/// Leading zeros of a 32-bit `x` (32 for 0): one `CLZ` on Armv7-M, a binary search on Armv6-M
+/// (where `leading_zeros` calls `__clzsi2`).
+#[inline(always)]
+pub fn leading_zeros_u32(x: u32) -> u32 {
+    if ARMV6M {
+        (32 - bit_len_u64_by_search(u64::from(x))) as u32
+    } else {
+        x.leading_zeros()
+    }
+}
+
 /// Bit length by binary search on 32-bit halves (the Armv6-M path of [`bit_len_u64`]).
 #[inline]
 pub fn bit_len_u64_by_search(x: u64) -> i32 {
@@ -199,6 +210,12 @@ mod tests {
                 "{x:#x}"
             );
             assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
+            let x32 = x as u32;
+            assert_eq!(leading_zeros_u32(x32), x32.leading_zeros(), "{x32:#x}");
+            assert_eq!(
+                (32 - bit_len_u64_by_search(u64::from(x32))) as u32,
+                x32.leading_zeros()
+            );
         }
         assert_eq!(mul_i32_wide(-3, 5), -15);
         assert_eq!(
