@@ -71,7 +71,7 @@ use crate::dyadic::Dyadic;
 use crate::error::ConfigError;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::status::Status;
-use crate::wide::{mul_i32_wide, mul_u32_wide};
+use crate::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
 
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
@@ -301,7 +301,7 @@ impl<const N: usize> RlsState<N> {
         let mut acc: u64 = 1 << (2 * U_FRAC_BITS);
         for row in self.u_i8f24.iter().take(j) {
             let uij = row.get(j).copied().unwrap_or(0);
-            acc = acc.saturating_add(i64::from(uij).pow(2).unsigned_abs());
+            acc = acc.saturating_add(mul_i32_wide(uij, uij).unsigned_abs());
         }
         acc
     }
@@ -352,10 +352,10 @@ fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
             continue;
         }
         // n ≥ 2^48: its high word is non-zero, one 32-bit leading-zero count normalises it.
-        let hi = (n >> 32) as u32;
-        let lz = crate::wide::leading_zeros_u32(hi);
+        let (hi, lo) = ((n >> 32) as u32, n as u32);
+        let lz = crate::wide::leading_zeros_u32(hi); // < 16
         let norm = Pos {
-            m: ((n << lz) >> 32) as u32,
+            m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
             e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
         };
         let term = Pos::of(*dj).mul(norm);
@@ -550,23 +550,29 @@ impl RlsConfig {
         if f_or == 0 {
             return Status::LOW_EXCITATION;
         }
-        // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31]; f = 2^k f̃, k = b − 40.
+        // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
         let b = crate::wide::bit_len_u64(f_or);
         let k = b - 40;
         let mut fh_i1f31 = [0i32; N];
-        let mut dummy = false;
-        let s_f = b - 31;
-        if (1..=62).contains(&s_f) {
-            // The usual case (|f| ≥ 2^31, i.e. ψ above 2^-9 of a unit): a rounded right shift;
-            // |f| < 2^b, so the result is at most 2^31 (clamped).
+        let sh = b - 32; // f̂ = round(f / 2^(sh + 1))
+        if (0..=31).contains(&sh) {
+            // The usual case (|f| ≥ 2^32, ψ above 2^-8 of a unit): x = f >> sh has |x| < 2^32, built
+            // from 32-bit shifts of the halves (a variable 64-bit shift is a library call on
+            // Armv6-M); rounding it to f̂ takes constant shifts only.
             for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-                // |x| < 2^32: round half up in 32 bits after one 64-bit shift.
-                let x = f >> (s_f - 1);
+                let (hi, lo) = ((*f >> 32) as i32, *f as u32);
+                let x = if sh == 0 {
+                    *f
+                } else {
+                    let lo_x = (lo >> sh) | ((hi as u32) << (32 - sh));
+                    (i64::from(hi >> sh) << 32) | i64::from(lo_x)
+                };
                 *fh = ((x >> 1) + (x & 1)).min(i64::from(i32::MAX)) as i32;
             }
         } else {
+            let mut dummy = false;
             for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-                *fh = sat_i32(shift_round_i64(*f, -s_f), &mut dummy);
+                *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
             }
         }
 
@@ -654,7 +660,7 @@ impl RlsConfig {
                     let p = mul_i32_wide(fh_j, *kap);
                     let du = if du_shift_ok {
                         // |p| ≤ 2^62: adding half a unit cannot overflow.
-                        (p + du_half) >> s_du
+                        shr_i64(p + du_half, s_du.unsigned_abs())
                     } else {
                         shift_round_i64(p, -s_du)
                     };
@@ -673,7 +679,7 @@ impl RlsConfig {
                         }
                     };
                     if norms {
-                        norm = norm.saturating_add(i64::from(u_new).pow(2).unsigned_abs());
+                        norm = norm.saturating_add(mul_i32_wide(u_new, u_new).unsigned_abs());
                     }
                 }
             }
@@ -695,11 +701,19 @@ impl RlsConfig {
             let p = mul_i32_wide(*kap, eps.raw());
             let dth = if theta_shift_ok {
                 // |p| ≤ 2^62: adding half a unit cannot overflow; the usual case.
-                (p + theta_half) >> -s_theta
+                shr_i64(p + theta_half, s_theta.unsigned_abs())
             } else {
                 shift_round_i64(p, s_theta)
             };
-            let new = sat_i32(i64::from(th.raw()).saturating_add(dth), &mut sat);
+            // θ moves by less than its range or saturates (flagged): narrow, then a 32-bit add.
+            let dth = sat_i32(dth, &mut sat);
+            let new = match th.raw().checked_add(dth) {
+                Some(x) => x,
+                None => {
+                    sat = true;
+                    if dth > 0 { i32::MAX } else { i32::MIN }
+                }
+            };
             *th = ParamI12F20::from_raw(new);
         }
         st.d = d_new;

@@ -50,6 +50,32 @@ pub fn leading_zeros_u32(x: u32) -> u32 {
     }
 }
 
+/// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` (outside that range the result is unspecified, not
+/// UB). On Armv6-M a variable 64-bit shift is a library call (`__aeabi_lasr`), so it is built
+/// there from 32-bit shifts of the two halves; both paths give the same result (tests).
+#[inline(always)]
+pub fn shr_i64(y: i64, s: u32) -> i64 {
+    if ARMV6M {
+        shr_i64_by_halves(y, s)
+    } else {
+        y.wrapping_shr(s)
+    }
+}
+
+/// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` from 32-bit shifts of the halves (the Armv6-M path of
+/// [`shr_i64`]).
+#[inline(always)]
+pub fn shr_i64_by_halves(y: i64, s: u32) -> i64 {
+    let (hi, lo) = ((y >> 32) as i32, y as u32);
+    if s < 32 {
+        let lo_out = (lo >> s) | ((hi as u32).wrapping_shl(32 - s));
+        let hi_out = hi >> s;
+        (i64::from(hi_out) << 32) | i64::from(lo_out)
+    } else {
+        i64::from(hi.wrapping_shr(s - 32))
+    }
+}
+
 /// Bit length by binary search on 32-bit halves (the Armv6-M path of [`bit_len_u64`]).
 #[inline]
 pub fn bit_len_u64_by_search(x: u64) -> i32 {
@@ -222,6 +248,30 @@ mod tests {
             mul_i32_u32_wide(i32::MIN, u32::MAX),
             -(i64::from(u32::MAX) << 31)
         );
+    }
+
+    #[test]
+    fn split_shift_equals_the_64_bit_one() {
+        let xs = [
+            0i64,
+            1,
+            -1,
+            2,
+            -3,
+            (1 << 62),
+            -(1 << 62),
+            0x0123_4567_89ab_cdef,
+            -0x0123_4567_89ab_cdef,
+            (1 << 40) + 12345,
+            -(1 << 33) - 1,
+        ];
+        for &x in &xs {
+            for s in 1..=62u32 {
+                let y = x + (1 << (s - 1));
+                assert_eq!(shr_i64_by_halves(y, s), y >> s, "{y} >> {s}");
+                assert_eq!(shr_i64(y, s), y >> s, "{y} >> {s}");
+            }
+        }
     }
 
     #[test]
