@@ -6,7 +6,8 @@
 //!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
 //!   diff).
 //! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
-//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --release`, in its own target
+//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --profile firmware`, the
+//!   size-optimised release profile the image is meant to be flashed with, in its own target
 //!   directory `target/fw` so the outer `cargo test` keeps its build lock), run each ELF under
 //!   `qemu-system-arm` (mps2-an386, microbit) with a timeout, and assert: exit status 0 and the
 //!   result line of the defmt log (semihosting stdout, decoded with `defmt-print -e ELF`) equal to
@@ -184,7 +185,15 @@ fn firmware_elf(target: &str) -> PathBuf {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let status = Command::new(cargo)
             .current_dir(workspace())
-            .args(["build", "--release", "-p", "sledid", "--bin", "sledid-fw"])
+            .args([
+                "build",
+                "--profile",
+                "firmware",
+                "-p",
+                "sledid",
+                "--bin",
+                "sledid-fw",
+            ])
             .args(["--target", M4F, "--target", M0])
             // Its own target directory: the outer `cargo test` holds the lock of its own.
             .env("CARGO_TARGET_DIR", firmware_target_dir())
@@ -202,7 +211,7 @@ fn firmware_elf(target: &str) -> PathBuf {
     if let Err(e) = built {
         panic!("{e}");
     }
-    firmware_target_dir().join(format!("{target}/release/sledid-fw"))
+    firmware_target_dir().join(format!("{target}/firmware/sledid-fw"))
 }
 
 /// What one QEMU run produced.

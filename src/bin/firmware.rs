@@ -9,10 +9,10 @@
 //!
 //! ```text
 //! # Cortex-M4F (QEMU mps2-an386) and Cortex-M0 (QEMU microbit):
-//! cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
-//!     | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw
-//! cargo run --release --target thumbv6m-none-eabi --bin sledid-fw \
-//!     | defmt-print -e target/thumbv6m-none-eabi/release/sledid-fw
+//! cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
+//!     | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw
+//! cargo run --profile firmware --target thumbv6m-none-eabi --bin sledid-fw \
+//!     | defmt-print -e target/thumbv6m-none-eabi/firmware/sledid-fw
 //! ```
 //! The runner (`.cargo/config.toml`) is QEMU. Everything the firmware says is defmt frames on
 //! semihosting stdout (binary: pipe them into `defmt-print`), the result line included; the image
@@ -431,7 +431,7 @@ fn main() {
     }
     println!("{RESULT_PREFIX} {}", run.summary());
     println!(
-        "Firmware under QEMU: cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
-         | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw"
+        "Firmware under QEMU: cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
+         | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw"
     );
 }
