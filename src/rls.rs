@@ -346,11 +346,7 @@ impl<const N: usize> RlsState<N> {
 /// Σⱼ dⱼ·normⱼ with the column norms `1 + Σ_{i<j} Uᵢⱼ²` in U16F48: the one formula the update's
 /// covariance bound and [`RlsState::trace`] share, so both see the same number.
 fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
-    let mut t: Option<Pos> = None;
-    for (dj, &n) in d.iter().zip(col_norm.iter()) {
-        if dj.is_zero() {
-            continue;
-        }
+    let term = |dj: &Dyadic, n: u64| {
         // n ≥ 2^48: its high word is non-zero, one 32-bit leading-zero count normalises it.
         let (hi, lo) = ((n >> 32) as u32, n as u32);
         let lz = crate::wide::leading_zeros_u32(hi); // < 16
@@ -358,10 +354,15 @@ fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
             m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
             e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
         };
-        let term = Pos::of(*dj).mul(norm);
-        t = Some(t.map_or(term, |acc| acc.add(term)));
-    }
-    t.map_or(Dyadic::ZERO, |p| Dyadic::from_normalised(p.m, p.e))
+        // D is positive by construction (zero is floored to the smallest positive value).
+        Pos::of(*dj).mul(norm)
+    };
+    let mut terms = d.iter().zip(col_norm.iter()).map(|(dj, &n)| term(dj, n));
+    let Some(first) = terms.next() else {
+        return Dyadic::ZERO;
+    };
+    let t = terms.fold(first, Pos::add);
+    Dyadic::from_normalised(t.m, t.e)
 }
 
 /// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
@@ -664,8 +665,19 @@ impl RlsConfig {
                     } else {
                         shift_round_i64(p, -s_du)
                     };
-                    // |du| ≤ 2^62 and |u_old| < 2^31: the difference cannot overflow.
-                    let u_new = sat_i32(i64::from(u_old) - du, &mut sat);
+                    // Usually |du| < 2^31: a 32-bit subtraction with an overflow check; else
+                    // the difference in 64 bits (|du| ≤ 2^62, no overflow) narrowed.
+                    let u_new = if i64::from(du as i32) == du {
+                        match u_old.checked_sub(du as i32) {
+                            Some(x) => x,
+                            None => {
+                                sat = true;
+                                if u_old < 0 { i32::MIN } else { i32::MAX }
+                            }
+                        }
+                    } else {
+                        sat_i32(i64::from(u_old) - du, &mut sat)
+                    };
                     *uij = u_new;
                     // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ: both terms below 2^31 in magnitude.
                     let kr = ((mul_i32_wide(*kap, r_j) + (1 << 30)) >> 31) as i32;
