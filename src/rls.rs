@@ -365,6 +365,13 @@ fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
     Dyadic::from_normalised(t.m, t.e)
 }
 
+/// `round(a·b / 2^32)` (half up): one `SMMULR` on Armv7E-M. The caller guarantees the result fits
+/// (it does whenever |a·b| ≤ 2^62, i.e. always for `i32` operands).
+#[inline(always)]
+fn mul_hi_round(a: i32, b: i32) -> i32 {
+    ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
+}
+
 /// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
 /// [`Dyadic`], without its exponent clamp and zero case. Exponents of stored values are within
 /// ±2¹⁴ and one update adds a few hundred at most, so `i32` cannot overflow; the clamp is applied
@@ -635,6 +642,8 @@ impl RlsConfig {
         let s_du = 7 - e_kappa;
         let du_shift_ok = (1..=62).contains(&s_du);
         let du_half = if du_shift_ok { 1i64 << (s_du - 1) } else { 0 };
+        let du_smmulr_ok = (1..=32).contains(&s_du);
+        let du_pre_shift = (32 - s_du).clamp(0, 31).unsigned_abs();
         let norms = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
         let mut col_norm = [0u64; N];
         let mut kappa = [0i32; N];
@@ -658,12 +667,16 @@ impl RlsConfig {
             for (row, kap) in st.u_i8f24.iter_mut().zip(kappa.iter_mut()).take(j) {
                 if let Some(uij) = row.get_mut(j) {
                     let u_old = *uij;
-                    let p = mul_i32_wide(fh_j, *kap);
-                    let du = if du_shift_ok {
+                    // κᵢ·2^(32−s_du) exact in 32 bits (the usual case): one high-word multiply,
+                    // bit-identical to the rounded 64-bit shift of the full product.
+                    let kap_pre = kap.wrapping_shl(du_pre_shift);
+                    let du = if du_smmulr_ok && kap_pre >> du_pre_shift == *kap {
+                        i64::from(mul_hi_round(fh_j, kap_pre))
+                    } else if du_shift_ok {
                         // |p| ≤ 2^62: adding half a unit cannot overflow.
-                        shr_i64(p + du_half, s_du.unsigned_abs())
+                        shr_i64(mul_i32_wide(fh_j, *kap) + du_half, s_du.unsigned_abs())
                     } else {
-                        shift_round_i64(p, -s_du)
+                        shift_round_i64(mul_i32_wide(fh_j, *kap), -s_du)
                     };
                     // Usually |du| < 2^31: a 32-bit subtraction with an overflow check; else
                     // the difference in 64 bits (|du| ≤ 2^62, no overflow) narrowed.
@@ -703,22 +716,25 @@ impl RlsConfig {
 
         // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_κ: raw F20 = κ·ε_raw·2^(e_κ − k + 4).
         let s_theta = e_kappa.saturating_sub(k).saturating_add(4);
-        let theta_shift_ok = (-62..=-1).contains(&s_theta);
-        let theta_half = if theta_shift_ok {
-            1i64 << (-s_theta - 1)
+        // Usually 0 ≤ s_θ + 32 ≤ 31 and ε·2^(s_θ+32) fits in 32 bits: then the rounded product is
+        // one high-word multiply (SMMULR) of κ by that exact pre-shift, bit-identical to the
+        // general path (the shift loses nothing; both round half up).
+        let a_theta = s_theta + 32;
+        let eps_pre = if (0..=31).contains(&a_theta) {
+            let shifted = eps.raw().wrapping_shl(a_theta.unsigned_abs());
+            (shifted >> a_theta == eps.raw()).then_some(shifted)
         } else {
-            0
+            None
         };
         for (th, kap) in st.theta.iter_mut().zip(kappa.iter()) {
-            let p = mul_i32_wide(*kap, eps.raw());
-            let dth = if theta_shift_ok {
-                // |p| ≤ 2^62: adding half a unit cannot overflow; the usual case.
-                shr_i64(p + theta_half, s_theta.unsigned_abs())
-            } else {
-                shift_round_i64(p, s_theta)
+            let dth = match eps_pre {
+                // |κ·ε'| ≤ 2^62: the high word is below 2^30, no narrowing needed.
+                Some(e) => mul_hi_round(*kap, e),
+                None => sat_i32(
+                    shift_round_i64(mul_i32_wide(*kap, eps.raw()), s_theta),
+                    &mut sat,
+                ),
             };
-            // θ moves by less than its range or saturates (flagged): narrow, then a 32-bit add.
-            let dth = sat_i32(dth, &mut sat);
             let new = match th.raw().checked_add(dth) {
                 Some(x) => x,
                 None => {
@@ -861,6 +877,24 @@ mod tests {
             assert!(st.trace().to_f64() <= 50.0 * (1.0 + 1e-6));
         }
         assert!(bounded > 1000);
+    }
+
+    #[test]
+    fn high_word_product_of_an_exact_pre_shift_equals_the_rounded_64_bit_shift() {
+        let mut x: u32 = 12345;
+        for _ in 0..20_000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let a = x as i32;
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let s = 1 + x % 32;
+            let b = (x as i32) >> (32 - s).min(31); // small enough that b·2^(32−s) is exact
+            let pre = b.wrapping_shl(32 - s);
+            if pre >> (32 - s) != b {
+                continue;
+            }
+            let expected = (mul_i32_wide(a, b) + (1i64 << (s - 1))) >> s;
+            assert_eq!(i64::from(mul_hi_round(a, pre)), expected, "{a} {b} {s}");
+        }
     }
 
     #[test]
