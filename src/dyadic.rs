@@ -100,6 +100,17 @@ impl Dyadic {
         Self::clamped(m << lz, exp.saturating_sub(lz as i32))
     }
 
+    /// `mant · 2^exp` for a mantissa already in `[2^31, 2^32)` (or 0), exponent limits applied: the
+    /// exit of kernels that work on raw mantissas and exponents.
+    #[inline(always)]
+    pub(crate) const fn from_normalised(mant: u32, exp: i32) -> Self {
+        if mant == 0 {
+            Self::ZERO
+        } else {
+            Self::clamped(mant, exp)
+        }
+    }
+
     /// Applies the exponent limits to a normalised mantissa.
     const fn clamped(mant: u32, exp: i32) -> Self {
         if exp > EXP_MAX {

@@ -32,7 +32,7 @@
 //! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. Each dⱼ,
 //!   αⱼ and 1/αⱼ carries its own exponent (32-bit mantissa), so range costs nothing.
 //! - **No division.** The only reciprocals are of αⱼ, by a table-seeded Newton iteration
-//!   ([`Dyadic::recip`]): no 64-bit software division on the hot path.
+//!   ([`crate::wide::recip_q63`]): no 64-bit software division on the hot path.
 //! - **Fixed point where the range is known.** f is normalised by a power of two (block floating
 //!   point: ψ·2⁻ᵏ, which only rescales α₀ to λ·4⁻ᵏ and the gain by 2⁻ᵏ, both exact), the gains gⱼ share
 //!   one exponent per update, and U is I8F24 — its entries are ratios of parameter scales, bounded
@@ -44,14 +44,23 @@
 //! | ψ, ε, ŷ | I16F16 ([`SignalI16F16`]) | quanta / fraction of full scale |
 //! | θ | I12F20 ([`ParamI12F20`]) | saturating, flagged |
 //! | U (strict upper part) | I8F24 `i32` | saturating, flagged |
-//! | D, α, 1/α, λ, 1/λ | [`Dyadic`] (32-bit mantissa, own exponent) | exponent saturation flagged |
-//! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹) | scale 2ᵏ kept aside |
-//! | κ (gain being built) | `i32` with one exponent per update, 6 bits of headroom | saturating, flagged |
+//! | D (stored), λ, 1/λ | [`Dyadic`] (32-bit mantissa, own exponent) | exponent saturation flagged |
+//! | vⱼ, αⱼ, 1/αⱼ, rⱼ, gⱼ, D (during the update) | mantissa in [2³¹, 2³²) and unclamped `i32` exponent | clamped once, when D is stored |
+//! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹] | scale 2ᵏ kept aside |
+//! | rⱼ = αⱼ₋₁/αⱼ | I1F31 `i32`, rounded, ≤ 2³¹ − 1 | |
+//! | κ (gain being built) | `i32` in units 2^e_κ, one e_κ per update: largest gⱼ below 2²³ (8 bits of headroom) | saturating, flagged |
+//! | Gⱼ = gⱼ·2⁸ in κ units | `i32` < 2³¹ | so that Uᵢⱼ·Gⱼ/2³² is in κ units (one `SMMULR`) |
 //!
 //! # Scaling and overflow
-//! `f` is accumulated exactly in I24F40 (`i64`). Products of two `i32` are formed in `i64` (no
-//! overflow possible); every narrowing uses [`sat_i32`] and raises [`Status::SATURATED`]. Shifts round
-//! half up (truncation would bias U and θ over 10⁶ samples).
+//! `f` is accumulated exactly in I24F40 (`i64`, saturating). Products of two `i32` are formed in
+//! `i64` (no overflow possible); every narrowing saturates and raises [`Status::SATURATED`]. Shifts
+//! round half up (truncation would bias U and θ over 10⁶ samples). The per-update shift amounts
+//! (f̂, ΔU, Δθ) are computed once; in the usual range a product and its rounded shift are one
+//! high-word multiply of an exactly pre-shifted operand, or 32-bit shifts of the two halves, and
+//! both give exactly the general path's result (unit test). The mantissa/exponent chain cannot
+//! overflow its `i32` exponents: stored exponents are within ±2¹⁴ and one update adds a few hundred.
+//! The trace bound uses the column norms `1 + Σᵢ Uᵢⱼ²` summed while U is updated, through the same
+//! function as [`RlsState::trace`], so the bound and the public trace agree exactly.
 //!
 //! # Anti-windup
 //! Selected per configuration ([`AntiWindup`]) and independent of it: a dead zone on |ε| (in sensor
@@ -59,11 +68,18 @@
 //! Skipped samples leave θ and P untouched (no forgetting without information, so no windup).
 //!
 //! # Accuracy
-//! Against a float64 textbook RLS on the same data: see `host-tests/tests/rls_vs_f64.rs` (θ relative
-//! error and simulation RMS asserted on simulated closed-loop plants and on the EMPS recording).
+//! Against a float64 textbook RLS on the same data: `host-tests/tests/rls_vs_f64.rs` (simulated
+//! closed-loop plants: ARX n = 4 within 3.6·10⁻⁴ relative, first-order OE within 1·10⁻³) and
+//! `emps_vs_f64.rs` (the EMPS recording: ARX(1,1) within 6.2·10⁻⁴, ARX(2,2) within 4·10⁻³ — measured
+//! 1.5–2.8·10⁻³, a figure that moves by ±50 % with the last bit of any intermediate, see the test;
+//! simulation RMS within 1.5 %). The limit is U's absolute I8F24 step, not the chain above.
 //!
 //! # Cost
-//! See `BENCHMARKS.md` (instructions and estimated cycles per update on Cortex-M4F and M0+).
+//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,000 instructions, ≈ 2,700
+//! cycles on Cortex-M4F and ≈ 7,000 cycles on M0+ (n = 2: ≈ 1,130 and ≈ 2,700). Per update that is
+//! about 70 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
+//! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
+//! 300 / 2,000 cycles are out of reach for this factorisation in integers.
 
 #![deny(clippy::float_arithmetic)]
 
@@ -71,12 +87,14 @@ use crate::dyadic::Dyadic;
 use crate::error::ConfigError;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::status::Status;
-use crate::wide::{mul_i32_u32_wide, mul_i32_wide};
+use crate::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
 
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
 /// Headroom bits of the gain accumulator κ above the largest gⱼ.
-const KAPPA_HEADROOM_BITS: i32 = 6;
+const KAPPA_HEADROOM_BITS: i32 = 8;
+/// Uᵢⱼ (I8F24) × Gⱼ (gⱼ in κ units · 2^KAPPA_HEADROOM_BITS) → κ units.
+const UG_SHIFT: i32 = U_FRAC_BITS as i32 + KAPPA_HEADROOM_BITS;
 /// Largest supported parameter count (the α accumulation and κ headroom are sized for it).
 pub const MAX_PARAMS: usize = 8;
 
@@ -294,23 +312,23 @@ impl<const N: usize> RlsState<N> {
         &self.d
     }
 
-    /// `1 + Σ_{i<j} U_ij²` for column j, as a dyadic number.
-    fn column_norm2(&self, j: usize) -> Dyadic {
+    /// `1 + Σ_{i<j} U_ij²` for column j, in U16F48 (saturating).
+    fn column_norm2(&self, j: usize) -> u64 {
         let mut acc: u64 = 1 << (2 * U_FRAC_BITS);
         for row in self.u_i8f24.iter().take(j) {
             let uij = row.get(j).copied().unwrap_or(0);
-            acc = acc.saturating_add(i64::from(uij).pow(2).unsigned_abs());
+            acc = acc.saturating_add(mul_i32_wide(uij, uij).unsigned_abs());
         }
-        Dyadic::from_u64(acc, -2 * U_FRAC_BITS as i32)
+        acc
     }
 
     /// trace(P) = Σⱼ dⱼ (1 + Σ_{i<j} Uᵢⱼ²).
     pub fn trace(&self) -> Dyadic {
-        let mut t = Dyadic::ZERO;
-        for (j, dj) in self.d.iter().enumerate() {
-            t = t.add_trunc(dj.mul_trunc(self.column_norm2(j)));
+        let mut norms = [0u64; N];
+        for (j, n) in norms.iter_mut().enumerate() {
+            *n = self.column_norm2(j);
         }
-        t
+        trace_of(&self.d, &norms)
     }
 
     /// The largest diagonal element of P: Pᵢᵢ = dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
@@ -338,6 +356,135 @@ impl<const N: usize> RlsState<N> {
                 *dj = Dyadic::MIN_POSITIVE;
             }
         }
+    }
+}
+
+/// Σⱼ dⱼ·normⱼ with the column norms `1 + Σ_{i<j} Uᵢⱼ²` in U16F48: the one formula the update's
+/// covariance bound and [`RlsState::trace`] share, so both see the same number.
+fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
+    let term = |dj: &Dyadic, n: u64| {
+        // n ≥ 2^48: its high word is non-zero, one 32-bit leading-zero count normalises it.
+        let (hi, lo) = ((n >> 32) as u32, n as u32);
+        let lz = crate::wide::leading_zeros_u32(hi); // < 16
+        let norm = Pos {
+            m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
+            e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
+        };
+        // D is positive by construction (zero is floored to the smallest positive value).
+        Pos::of(*dj).mul(norm)
+    };
+    let mut terms = d.iter().zip(col_norm.iter()).map(|(dj, &n)| term(dj, n));
+    let Some(first) = terms.next() else {
+        return Dyadic::ZERO;
+    };
+    let t = terms.fold(first, Pos::add);
+    Dyadic::from_normalised(t.m, t.e)
+}
+
+/// `round(a·b / 2^32)` (half up): one `SMMULR` on Armv7E-M. The caller guarantees the result fits
+/// (it does whenever |a·b| ≤ 2^62, i.e. always for `i32` operands).
+#[inline(always)]
+fn mul_hi_round(a: i32, b: i32) -> i32 {
+    ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
+}
+
+/// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
+/// [`Dyadic`], without its exponent clamp and zero case. Exponents of stored values are within
+/// ±2¹⁴ and one update adds a few hundred at most, so `i32` cannot overflow; the clamp is applied
+/// once, when D is stored ([`Dyadic::from_normalised`]). `ZERO` (m = 0) only marks a zero gain.
+#[derive(Clone, Copy)]
+struct Pos {
+    m: u32,
+    e: i32,
+}
+
+impl Pos {
+    const ZERO: Self = Self { m: 0, e: 0 };
+
+    /// From a positive dyadic (D, λ, 1/λ: never zero).
+    #[inline(always)]
+    fn of(d: Dyadic) -> Self {
+        Self {
+            m: d.mant(),
+            e: d.exp(),
+        }
+    }
+
+    /// `self · 2^k`.
+    #[inline(always)]
+    fn shl(self, k: i32) -> Self {
+        Self {
+            m: self.m,
+            e: self.e + k,
+        }
+    }
+
+    /// The product, truncated to 32 bits: one widening multiply and a one-bit normalisation.
+    #[inline(always)]
+    fn mul(self, rhs: Self) -> Self {
+        let p = mul_u32_wide(self.m, rhs.m); // in [2^62, 2^64)
+        let (hi, lo) = ((p >> 32) as u32, p as u32);
+        // Constant shifts on the two words: a variable 64-bit shift costs ~8 instructions.
+        let top = hi >> 31;
+        let m = if top != 0 { hi } else { (hi << 1) | (lo >> 31) };
+        Self {
+            m,
+            e: self.e + rhs.e + 31 + top as i32,
+        }
+    }
+
+    /// The sum, aligned and added in 32 bits (error below 2 units of the last kept bit).
+    #[inline(always)]
+    fn add(self, rhs: Self) -> Self {
+        let (hi, lo) = if self.e >= rhs.e {
+            (self, rhs)
+        } else {
+            (rhs, self)
+        };
+        let d = hi.e.abs_diff(lo.e);
+        let lo_m = if d >= 32 { 0 } else { lo.m >> d };
+        let (sum, carry) = hi.m.overflowing_add(lo_m);
+        if carry {
+            Self {
+                m: (sum >> 1) | (1 << 31),
+                e: hi.e + 1,
+            }
+        } else {
+            Self { m: sum, e: hi.e }
+        }
+    }
+
+    /// `1 / self` ([`crate::wide::recip_q63`], within two units of the last kept bit).
+    #[inline(always)]
+    fn recip(self) -> Self {
+        // recip_q63 is in [2^31 − 1, 2^32): keep the mantissa normalised.
+        let x = (crate::wide::recip_q63(self.m) as u32).max(1 << 31);
+        Self {
+            m: x,
+            e: -63 - self.e,
+        }
+    }
+
+    /// The value (≤ 1 up to rounding) as I1F31, rounded, saturating at `i32::MAX`.
+    #[inline(always)]
+    fn to_i1f31(self) -> i32 {
+        // raw = m · 2^(e + 31) = m >> (−31 − e).
+        let sh = -31 - self.e;
+        if sh <= 0 {
+            i32::MAX
+        } else {
+            self.shr_round(sh).min(i32::MAX as u32) as i32
+        }
+    }
+
+    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
+    #[inline(always)]
+    fn shr_round(self, sh: i32) -> u32 {
+        if !(1..=32).contains(&sh) {
+            return 0;
+        }
+        let x = self.m >> (sh - 1);
+        (x >> 1) + (x & 1)
     }
 }
 
@@ -412,7 +559,7 @@ impl RlsConfig {
 
         // f = Uᵀψ, exactly, in I24F40.
         let mut f_i24f40 = [0i64; N];
-        let mut f_max: u64 = 0;
+        let mut f_or: u64 = 0;
         for (j, fj) in f_i24f40.iter_mut().enumerate() {
             let psi_j = psi.get(j).map_or(0, |p| i64::from(p.raw()));
             let mut acc = psi_j << U_FRAC_BITS;
@@ -421,101 +568,203 @@ impl RlsConfig {
                 acc = acc.saturating_add(mul_i32_wide(uij, p.raw()));
             }
             *fj = acc;
-            f_max = f_max.max(acc.unsigned_abs());
+            // The OR has the bit length of the largest |fⱼ|.
+            f_or |= acc.unsigned_abs();
         }
-        if f_max == 0 {
+        if f_or == 0 {
             return Status::LOW_EXCITATION;
         }
         // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
-        let b = crate::wide::bit_len_u64(f_max);
+        let b = crate::wide::bit_len_u64(f_or);
         let k = b - 40;
         let mut fh_i1f31 = [0i32; N];
-        let mut dummy = false;
-        for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-            *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
+        let sh = b - 32; // f̂ = round(f / 2^(sh + 1))
+        if (0..=31).contains(&sh) {
+            // The usual case (|f| ≥ 2^32, ψ above 2^-8 of a unit): x = f >> sh has |x| < 2^32, built
+            // from 32-bit shifts of the halves (a variable 64-bit shift is a library call on
+            // Armv6-M); rounding it to f̂ takes constant shifts only.
+            for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
+                let (hi, lo) = ((*f >> 32) as i32, *f as u32);
+                let x = if sh == 0 {
+                    *f
+                } else {
+                    let lo_x = (lo >> sh) | ((hi as u32) << (32 - sh));
+                    (i64::from(hi >> sh) << 32) | i64::from(lo_x)
+                };
+                *fh = ((x >> 1) + (x & 1)).min(i64::from(i32::MAX)) as i32;
+            }
+        } else {
+            let mut dummy = false;
+            for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
+                *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
+            }
         }
 
-        // Pass 1: the scalar chain αⱼ, rⱼ, gⱼ and the new D (nothing stored yet).
-        let alpha0 = self.lambda.shl(-2 * k);
-        let mut alpha_prev = alpha0;
-        let mut sum_dff = Dyadic::ZERO;
-        let mut g = [Dyadic::ZERO; N];
-        let mut r_u0f32 = [0u32; N];
+        // Pass 1: the scalar chain αⱼ, rⱼ, gⱼ and the new D, on unclamped mantissa/exponent pairs.
+        let lambda_inv = Pos::of(self.lambda_inv);
+        let alpha0 = Pos::of(self.lambda).shl(-2 * k);
+        let mut alpha = alpha0;
+        let mut g = [Pos::ZERO; N];
+        let mut r_i1f31 = [0i32; N];
         let mut d_new = st.d;
-        for (j, dn) in d_new.iter_mut().enumerate() {
-            let fh = fh_i1f31.get(j).copied().unwrap_or(0);
-            let f_abs = Dyadic::from_u32(fh.unsigned_abs(), -31);
-            let v = dn.mul_trunc(f_abs); // dⱼ |f̃ⱼ|
-            sum_dff = sum_dff.add_trunc(v.mul_trunc(f_abs));
-            let alpha = alpha0.add_trunc(sum_dff);
-            let rho = alpha.recip();
-            let r = alpha_prev.mul_trunc(rho);
-            if let Some(rj) = r_u0f32.get_mut(j) {
-                *rj = r.to_u0f32_saturating();
+        for ((dn, fh), (gj, rj)) in d_new
+            .iter_mut()
+            .zip(fh_i1f31.iter())
+            .zip(g.iter_mut().zip(r_i1f31.iter_mut()))
+        {
+            let d = Pos::of(*dn);
+            let fa = fh.unsigned_abs();
+            if fa == 0 {
+                // fⱼ = 0: αⱼ = αⱼ₋₁, rⱼ = 1, gⱼ = 0.
+                *rj = i32::MAX;
+                let dl = d.mul(lambda_inv);
+                *dn = Dyadic::from_normalised(dl.m, dl.e);
+                continue;
             }
-            if let Some(gj) = g.get_mut(j) {
-                *gj = v.mul_trunc(rho);
-            }
-            *dn = dn.mul_trunc(r).mul_trunc(self.lambda_inv);
-            if dn.is_zero() {
-                *dn = Dyadic::MIN_POSITIVE;
-            }
-            alpha_prev = alpha;
+            let lz = crate::wide::leading_zeros_u32(fa);
+            let f = Pos {
+                m: fa << lz,
+                e: -31 - lz as i32,
+            };
+            let v = d.mul(f); // dⱼ |f̃ⱼ|
+            let alpha_next = alpha.add(v.mul(f));
+            let rho = alpha_next.recip();
+            let r = alpha.mul(rho);
+            *rj = r.to_i1f31();
+            *gj = v.mul(rho);
+            let dl = d.mul(r).mul(lambda_inv);
+            *dn = Dyadic::from_normalised(dl.m, dl.e);
+            alpha = alpha_next;
         }
-        // Excitation gate: ψᵀPψ = 4ᵏ Σ dⱼ f̃ⱼ².
-        if sum_dff.shl(2 * k).lt(self.excitation_min) {
-            return Status::LOW_EXCITATION;
+        // Excitation gate: ψᵀPψ = 4ᵏ (α_N − α₀) < threshold.
+        if !self.excitation_min.is_zero() {
+            let a0 = Dyadic::from_normalised(alpha0.m, alpha0.e);
+            let limit = a0.add_trunc(self.excitation_min.shl(-2 * k));
+            if Dyadic::from_normalised(alpha.m, alpha.e).lt(limit) {
+                return Status::LOW_EXCITATION;
+            }
         }
 
-        // Pass 2: gains in one block exponent, then U and κ in fixed point.
+        // Pass 2: gains in one block exponent e_κ (largest gain below 2^(31−KAPPA_HEADROOM_BITS)),
+        // then U and κ in fixed point.
         let e_g = g
             .iter()
-            .filter(|x| !x.is_zero())
-            .map(|x| x.exp())
+            .filter(|x| x.m != 0)
+            .map(|x| x.e)
             .max()
             .unwrap_or(0);
         let e_kappa = e_g.saturating_add(1 + KAPPA_HEADROOM_BITS);
+        // Uᵢⱼ −= f̃ⱼ κᵢ: I1F31 × (κ·2^e_κ) → I8F24 is a right shift by 7 − e_κ of the product.
+        let s_du = 7 - e_kappa;
+        let du_shift_ok = (1..=62).contains(&s_du);
+        let du_half = if du_shift_ok { 1i64 << (s_du - 1) } else { 0 };
+        let du_smmulr_ok = (1..=32).contains(&s_du);
+        let du_pre_shift = (32 - s_du).clamp(0, 31).unsigned_abs();
+        let norms = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
+        let mut col_norm = [0u64; N];
         let mut kappa = [0i32; N];
-        for j in 0..N {
-            let gd = g.get(j).copied().unwrap_or(Dyadic::ZERO);
-            let shift = e_g.abs_diff(gd.exp()) + 1 + KAPPA_HEADROOM_BITS as u32;
-            let g_mag = if gd.is_zero() || shift >= 32 {
-                0
+        for (j, ((gj, &fh_j), (&r_j, cn))) in g
+            .iter()
+            .zip(fh_i1f31.iter())
+            .zip(r_i1f31.iter().zip(col_norm.iter_mut()))
+            .enumerate()
+        {
+            // gⱼ in κ units (κⱼ's start) and ·2⁸ (Gⱼ, for Uᵢⱼ·Gⱼ/2³² → κ units).
+            let sh = e_kappa - KAPPA_HEADROOM_BITS - gj.e;
+            // Both below 2^31 (sh ≥ 1 for the largest gain; rounding may reach 2^31: clamped).
+            let g_big = gj.shr_round(sh).min(i32::MAX as u32) as i32;
+            let g_kappa = gj.shr_round(sh + KAPPA_HEADROOM_BITS) as i32;
+            let (g_big, g_kappa) = if fh_j < 0 {
+                (-g_big, -g_kappa)
             } else {
-                (gd.mant() >> shift) as i32
+                (g_big, g_kappa)
             };
-            let fh_j = fh_i1f31.get(j).copied().unwrap_or(0);
-            let g_j = if fh_j < 0 { -g_mag } else { g_mag };
-            let r_j = r_u0f32.get(j).copied().unwrap_or(0);
+            let mut norm: u64 = 1 << (2 * U_FRAC_BITS);
             for (row, kap) in st.u_i8f24.iter_mut().zip(kappa.iter_mut()).take(j) {
                 if let Some(uij) = row.get_mut(j) {
                     let u_old = *uij;
-                    // Uᵢⱼ ← Uᵢⱼ − f̃ⱼ κᵢ: I1F31 × (κ·2^e_kappa) → I8F24.
-                    let du = shift_round_i64(mul_i32_wide(fh_j, *kap), e_kappa - 7);
-                    *uij = sat_i32(i64::from(u_old).saturating_sub(du), &mut sat);
-                    // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ.
-                    let kr = shr_round_i64(mul_i32_u32_wide(*kap, r_j), 32);
-                    let ug = shr_round_i64(mul_i32_wide(u_old, g_j), U_FRAC_BITS);
-                    *kap = sat_i32(kr + ug, &mut sat);
+                    // κᵢ·2^(32−s_du) exact in 32 bits (the usual case): one high-word multiply,
+                    // bit-identical to the rounded 64-bit shift of the full product.
+                    let kap_pre = kap.wrapping_shl(du_pre_shift);
+                    let du = if du_smmulr_ok && kap_pre >> du_pre_shift == *kap {
+                        i64::from(mul_hi_round(fh_j, kap_pre))
+                    } else if du_shift_ok {
+                        // |p| ≤ 2^62: adding half a unit cannot overflow.
+                        shr_i64(mul_i32_wide(fh_j, *kap) + du_half, s_du.unsigned_abs())
+                    } else {
+                        shift_round_i64(mul_i32_wide(fh_j, *kap), -s_du)
+                    };
+                    // Usually |du| < 2^31: a 32-bit subtraction with an overflow check; else
+                    // the difference in 64 bits (|du| ≤ 2^62, no overflow) narrowed.
+                    let u_new = if i64::from(du as i32) == du {
+                        match u_old.checked_sub(du as i32) {
+                            Some(x) => x,
+                            None => {
+                                sat = true;
+                                if u_old < 0 { i32::MIN } else { i32::MAX }
+                            }
+                        }
+                    } else {
+                        sat_i32(i64::from(u_old) - du, &mut sat)
+                    };
+                    *uij = u_new;
+                    // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ: both terms below 2^31 in magnitude.
+                    let kr = ((mul_i32_wide(*kap, r_j) + (1 << 30)) >> 31) as i32;
+                    let ug =
+                        ((mul_i32_wide(u_old, g_big) + (1 << (UG_SHIFT - 1))) >> UG_SHIFT) as i32;
+                    *kap = match kr.checked_add(ug) {
+                        Some(x) => x,
+                        None => {
+                            sat = true;
+                            if kr > 0 { i32::MAX } else { i32::MIN }
+                        }
+                    };
+                    if norms {
+                        norm = norm.saturating_add(mul_i32_wide(u_new, u_new).unsigned_abs());
+                    }
                 }
             }
+            *cn = norm;
             if let Some(kj) = kappa.get_mut(j) {
-                *kj = g_j;
+                *kj = g_kappa;
             }
         }
 
-        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_kappa: raw F20 = κ·ε_raw·2^(e_kappa − k + 4).
+        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_κ: raw F20 = κ·ε_raw·2^(e_κ − k + 4).
         let s_theta = e_kappa.saturating_sub(k).saturating_add(4);
+        // Usually 0 ≤ s_θ + 32 ≤ 31 and ε·2^(s_θ+32) fits in 32 bits: then the rounded product is
+        // one high-word multiply (SMMULR) of κ by that exact pre-shift, bit-identical to the
+        // general path (the shift loses nothing; both round half up).
+        let a_theta = s_theta + 32;
+        let eps_pre = if (0..=31).contains(&a_theta) {
+            let shifted = eps.raw().wrapping_shl(a_theta.unsigned_abs());
+            (shifted >> a_theta == eps.raw()).then_some(shifted)
+        } else {
+            None
+        };
         for (th, kap) in st.theta.iter_mut().zip(kappa.iter()) {
-            let dth = shift_round_i64(mul_i32_wide(*kap, eps.raw()), s_theta);
-            let new = sat_i32(i64::from(th.raw()).saturating_add(dth), &mut sat);
+            let dth = match eps_pre {
+                // |κ·ε'| ≤ 2^62: the high word is below 2^30, no narrowing needed.
+                Some(e) => mul_hi_round(*kap, e),
+                None => sat_i32(
+                    shift_round_i64(mul_i32_wide(*kap, eps.raw()), s_theta),
+                    &mut sat,
+                ),
+            };
+            let new = match th.raw().checked_add(dth) {
+                Some(x) => x,
+                None => {
+                    sat = true;
+                    if dth > 0 { i32::MAX } else { i32::MIN }
+                }
+            };
             *th = ParamI12F20::from_raw(new);
         }
         st.d = d_new;
 
         let mut status = Status::UPDATED;
         status.set_if(Status::SATURATED, sat);
-        status |= self.bound_covariance(st);
+        status |= self.bound_covariance(st, &col_norm);
         status.set_if(
             Status::COVARIANCE_SATURATED,
             st.d.iter().any(|d| d.is_saturated()),
@@ -523,12 +772,17 @@ impl RlsConfig {
         status
     }
 
-    /// Applies the configured covariance limit after an update.
-    fn bound_covariance<const N: usize>(&self, st: &mut RlsState<N>) -> Status {
+    /// Applies the configured covariance limit after an update; `col_norm` holds the column norms
+    /// of the new U ([`RlsState::column_norm2`]'s sums) when the bound is on the trace.
+    fn bound_covariance<const N: usize>(
+        &self,
+        st: &mut RlsState<N>,
+        col_norm: &[u64; N],
+    ) -> Status {
         match self.bound {
             Bound::None => Status::NONE,
             Bound::Trace(max) => {
-                let tr = st.trace();
+                let tr = trace_of(&st.d, col_norm);
                 if max.lt(tr) {
                     st.scale(max.mul_trunc(tr.recip()));
                     Status::COVARIANCE_BOUNDED
@@ -546,7 +800,7 @@ impl RlsConfig {
                 }
             }
             Bound::ConstantTrace(c) => {
-                let tr = st.trace();
+                let tr = trace_of(&st.d, col_norm);
                 st.scale(c.mul_trunc(tr.recip()));
                 Status::TRACE_NORMALISED
             }
@@ -639,6 +893,24 @@ mod tests {
             assert!(st.trace().to_f64() <= 50.0 * (1.0 + 1e-6));
         }
         assert!(bounded > 1000);
+    }
+
+    #[test]
+    fn high_word_product_of_an_exact_pre_shift_equals_the_rounded_64_bit_shift() {
+        let mut x: u32 = 12345;
+        for _ in 0..20_000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let a = x as i32;
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let s = 1 + x % 32;
+            let b = (x as i32) >> (32 - s).min(31); // small enough that b·2^(32−s) is exact
+            let pre = b.wrapping_shl(32 - s);
+            if pre >> (32 - s) != b {
+                continue;
+            }
+            let expected = (mul_i32_wide(a, b) + (1i64 << (s - 1))) >> s;
+            assert_eq!(i64::from(mul_hi_round(a, pre)), expected, "{a} {b} {s}");
+        }
     }
 
     #[test]

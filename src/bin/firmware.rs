@@ -1,5 +1,5 @@
 //! `sledid-fw`: the identifier as firmware. SysTick fires once per sled sample period (Ts = 0.455 ms);
-//! its handler feeds the next sample of a recording embedded in flash (the first 2,000 rows of the
+//! its handler feeds the next sample of a recording embedded in flash (the first 640 rows of the
 //! EMPS benchmark, `fixtures/emps_excerpt.bin`) through [`sledid::step::step`], folds every output
 //! into a checksum and pushes a telemetry record into a fixed-capacity SPSC queue. The main loop
 //! drains the queue, counts the records and logs a few with defmt (over semihosting). At the end it
@@ -9,18 +9,19 @@
 //!
 //! ```text
 //! # Cortex-M4F (QEMU mps2-an386) and Cortex-M0 (QEMU microbit):
-//! cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
-//!     | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw
-//! cargo run --release --target thumbv6m-none-eabi --bin sledid-fw \
-//!     | defmt-print -e target/thumbv6m-none-eabi/release/sledid-fw
+//! cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
+//!     | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw
+//! cargo run --profile firmware --target thumbv6m-none-eabi --bin sledid-fw \
+//!     | defmt-print -e target/thumbv6m-none-eabi/firmware/sledid-fw
 //! ```
-//! The runner (`.cargo/config.toml`) is QEMU. The defmt frames go to semihosting stdout (binary:
-//! pipe them into `defmt-print`), the plain-text result lines to semihosting stderr. Built for the
-//! host, `main` prints the configuration and the host replay's result line.
+//! The runner (`.cargo/config.toml`) is QEMU. Everything the firmware says is defmt frames on
+//! semihosting stdout (binary: pipe them into `defmt-print`), the result line included; the image
+//! links no `core::fmt` (≈ 5 KB of flash). Built for the host, `main` prints the configuration and
+//! the host replay's result line.
 //!
 //! For `count_insns.py` the image also exports `sledid_fw_bench_init` (`--init`),
 //! `sledid_fw_bench_step` (one sample as the interrupt does it: step and checksum, on record
-//! `i mod 2000`), `sledid_fw_bench_identify` (the step alone) and `sledid_fw_bench_overhead` (the
+//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_identify` (the step alone) and `sledid_fw_bench_overhead` (the
 //! same scaffolding without either, to subtract).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 #![deny(missing_docs, unsafe_code)]
@@ -44,7 +45,7 @@ mod target {
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m_rt::{entry, exception};
-    use cortex_m_semihosting::{debug, heprintln};
+    use cortex_m_semihosting::debug;
     use critical_section::Mutex;
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
@@ -140,21 +141,22 @@ mod target {
         }
     }
 
-    /// Main → SysTick, once: the ticker (moved into the handler on its first run).
-    static HANDOFF: Mutex<Cell<Option<Ticker>>> = Mutex::new(Cell::new(None));
+    /// Main → SysTick, once: the ticker. Only the reference is handed over: the ticker itself (the
+    /// run state) lives once, in `main`'s static storage.
+    static HANDOFF: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
     /// SysTick → main, once: the outcome.
     static DONE: Mutex<Cell<Option<Finished>>> = Mutex::new(Cell::new(None));
 
-    /// The sample-period interrupt: one step of the identifier on the next record. The ticker is
-    /// moved from [`HANDOFF`] into the handler's own state on the first run, so the step itself runs
-    /// outside any critical section.
+    /// The sample-period interrupt: one step of the identifier on the next record. The reference to
+    /// the ticker is taken from [`HANDOFF`] on the first run, so the step itself runs outside any
+    /// critical section.
     #[exception]
     fn SysTick() {
-        static mut TICKER: Option<Ticker> = None;
+        static mut TICKER: Option<&'static mut Ticker> = None;
         if TICKER.is_none() {
             *TICKER = critical_section::with(|cs| HANDOFF.borrow(cs).take());
         }
-        if let Some(done) = TICKER.as_mut().and_then(Ticker::tick) {
+        if let Some(done) = TICKER.as_deref_mut().and_then(Ticker::tick) {
             critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
         }
     }
@@ -231,8 +233,12 @@ mod target {
         (bottom, top)
     }
 
-    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success.
-    fn run(queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>) -> bool {
+    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. `slot`
+    /// is where the ticker (the run state) lives: the handler only gets a reference to it.
+    fn run(
+        queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>,
+        slot: &'static mut Option<Ticker>,
+    ) -> bool {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
@@ -254,12 +260,12 @@ mod target {
             CORE_CLOCK_HZ
         );
         let (producer, mut consumer) = queue.split();
-        let ticker = Ticker {
+        let ticker = slot.insert(Ticker {
             run,
             next: 0,
             producer,
             dropped: 0,
-        };
+        });
         critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
 
         let mut syst = cp.SYST;
@@ -285,7 +291,8 @@ mod target {
         let s = finished.summary;
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
-            "result: samples={=u32} updates={=u32} checksum={=u64:#x} theta={}",
+            "{=str} samples={=u32} updates={=u32} checksum={=u64:#018x} theta={}",
+            RESULT_PREFIX,
             s.samples,
             s.updates,
             s.checksum,
@@ -293,14 +300,6 @@ mod target {
         );
         defmt::println!(
             "telemetry: {=u32} received, {=u32} dropped; stack high-water {=usize} of {=usize} bytes",
-            received,
-            finished.dropped,
-            stack_used,
-            stack_size
-        );
-        heprintln!("{} {}", RESULT_PREFIX, s);
-        heprintln!(
-            "sledid-fw telemetry: received={} dropped={} stack_high_water={} stack_size={}",
             received,
             finished.dropped,
             stack_used,
@@ -314,10 +313,11 @@ mod target {
     #[entry]
     fn main() -> ! {
         static mut QUEUE: Queue<Telemetry, QUEUE_SLOTS> = Queue::new();
+        static mut TICKER: Option<Ticker> = None;
         // Nothing calls the bench exports; referencing them keeps the linker from dropping them.
         core::hint::black_box(&BENCH_EXPORTS);
         paint_stack();
-        let ok = run(QUEUE);
+        let ok = run(QUEUE, TICKER);
         debug::exit(if ok {
             debug::EXIT_SUCCESS
         } else {
@@ -328,10 +328,15 @@ mod target {
         }
     }
 
-    /// Reports the panic (none is expected: the data path has none) and exits with failure.
+    /// Reports where it panicked (none is expected: the data path has none) and exits with
+    /// failure. The location only, through defmt: formatting the message would link `core::fmt`
+    /// (≈ 5 KB of flash).
     #[panic_handler]
     fn panic(info: &core::panic::PanicInfo) -> ! {
-        heprintln!("sledid-fw panic: {}", info);
+        match info.location() {
+            Some(l) => defmt::println!("sledid-fw panic at {=str}:{=u32}", l.file(), l.line()),
+            None => defmt::println!("sledid-fw panic"),
+        }
         debug::exit(debug::EXIT_FAILURE);
         loop {
             cortex_m::asm::wfi();
@@ -348,7 +353,7 @@ mod target {
         critical_section::with(|cs| BENCH.borrow(cs).replace(Run::new().ok()));
     }
 
-    /// Runs `f` on the bench run and record `i mod 2000`, in a critical section (0 if the bench
+    /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
     /// run was not initialised).
     #[inline(always)]
     fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
@@ -359,7 +364,7 @@ mod target {
         })
     }
 
-    /// One sample as the interrupt does it: record `i mod 2000` through the step and the checksum.
+    /// One sample as the interrupt does it: record `i mod FIXTURE_SAMPLES` through the step and the checksum.
     /// Returns the status bits.
     #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
     #[unsafe(no_mangle)]
@@ -367,7 +372,7 @@ mod target {
         with_bench(i, |run, sample| u32::from(run.step(sample).status.bits()))
     }
 
-    /// The per-sample step alone ([`fw_config::identify`], no checksum) on record `i mod 2000`.
+    /// The per-sample step alone ([`fw_config::identify`], no checksum) on record `i mod FIXTURE_SAMPLES`.
     /// Returns the status bits.
     #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
     #[unsafe(no_mangle)]
@@ -426,7 +431,7 @@ fn main() {
     }
     println!("{RESULT_PREFIX} {}", run.summary());
     println!(
-        "Firmware under QEMU: cargo run --release --target thumbv7em-none-eabihf --bin sledid-fw \
-         | defmt-print -e target/thumbv7em-none-eabihf/release/sledid-fw"
+        "Firmware under QEMU: cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
+         | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw"
     );
 }
