@@ -128,13 +128,37 @@ impl LoopConfig {
 
     /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
     pub fn step(&self, state: &mut LoopState, r: PositionI48F16, y: PositionI48F16) -> LoopOutput {
+        self.step_with_drive(state, r, y, None)
+    }
+
+    /// Shadow mode, for commissioning beside a controller already in charge: the loop computes its
+    /// drive u(k) (returned, not applied), but the identifiers learn from `u_applied`, the drive the
+    /// plant really received — the only input that explains y. Never panics.
+    pub fn step_shadow(
+        &self,
+        state: &mut LoopState,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        u_applied: SignalI16F16,
+    ) -> LoopOutput {
+        self.step_with_drive(state, r, y, Some(u_applied))
+    }
+
+    fn step_with_drive(
+        &self,
+        state: &mut LoopState,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        u_applied: Option<SignalI16F16>,
+    ) -> LoopOutput {
         let out = self
             .controller
             .step(&mut state.controller, r, y, &state.report);
+        let u_plant = u_applied.unwrap_or(out.u);
         let velocity = step(
             &self.velocity,
             &mut state.velocity,
-            &Sample { y, u: out.u, r },
+            &Sample { y, u: u_plant, r },
         );
         state.report = ModelReport {
             status: velocity.status,
@@ -146,7 +170,7 @@ impl LoopConfig {
             let mut sat = false;
             let y_c = y.offset_from(r, &mut sat);
             let dy = self.decimator.push(&mut state.decimate_y, y_c);
-            let du = self.decimator.push(&mut state.decimate_u, out.u);
+            let du = self.decimator.push(&mut state.decimate_u, u_plant);
             if let (Some(dy), Some(du)) = (dy, du) {
                 st.set_enabled(out.region != Region::Seek);
                 let mut e = cfg.step(st, dy.y, du.y);

@@ -103,3 +103,32 @@ fn wiener_beside_the_controller_observes_without_disturbing() {
     assert!(th[0].to_f64().abs() <= 1.0, "{th:?}");
     println!("Wiener θ = {:?}", th.map(|p| p.to_f64()));
 }
+
+/// Shadow mode: with the drive the plant received given explicitly, the loop computes its own u
+/// but its identifier learns from the applied one — equal to the normal step when they coincide.
+#[test]
+fn shadow_mode_identifies_from_the_applied_drive() {
+    use sledid::PositionI48F16;
+    use sledid::sled_loop::LoopDesign;
+    let params = TwinParams::default();
+    let design = scheduled_design(&params).unwrap();
+    let loop_design = LoopDesign {
+        controller: design,
+        velocity: identifier_design(design.prior_model.unwrap()),
+        wiener: Some(wiener()),
+    };
+    let cfg = loop_design.build().unwrap();
+    let (mut normal, mut shadow_same, mut shadow_other) =
+        (cfg.new_state(), cfg.new_state(), cfg.new_state());
+    let mut differ = 0;
+    for k in 0..2000i64 {
+        let r = PositionI48F16::from_counts(if k < 1000 { 0 } else { 40 });
+        let y = PositionI48F16::from_counts((k / 30) % 50);
+        let a = cfg.step(&mut normal, r, y);
+        let b = cfg.step_shadow(&mut shadow_same, r, y, a.u);
+        assert_eq!(a, b, "sample {k}");
+        let c = cfg.step_shadow(&mut shadow_other, r, y, sledid::SignalI16F16::ZERO);
+        differ += usize::from(c.velocity.theta != a.velocity.theta);
+    }
+    assert!(differ > 0);
+}
