@@ -3,6 +3,12 @@
 //! the identifier through `sledid::step::step`, the firmware's per-sample function — and the
 //! settling statistics the issue asks for, a JSON summary and a plot of a few step responses.
 //!
+//! The scheduled controller is tuned on a *nominal* plant ([`scheduled_design_for`]): the
+//! `--plant` file's (the default sled without one). `--perturb` ([`Perturbation`]) runs the loop on
+//! that plant with its mass, friction or quantum scaled, which the controller was not tuned on.
+//! `host-tests/plants/paper_sled.json` is the paper-like twin: the default sled with the paper's
+//! kind of badly tuned baseline, which oscillates while settling (see the README beside it).
+//!
 //! # Measures (per seek; the error is `target − y` in quanta, as in `twin::analysis`)
 //! - settling time: from the seek's first sample until |e| ≤ 1 for the rest of the seek; a seek
 //!   that never settles counts as `unsettled` and enters the statistics with its whole length (a
@@ -32,7 +38,7 @@ use crate::twin::{PlantParams, SledController, Twin, TwinParams};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ControllerKind {
-    /// The paper's badly tuned PID (the twin's default gains) in fixed point.
+    /// The paper's badly tuned PID (the parameters' `controller` gains) in fixed point.
     Baseline,
     /// The gain-scheduled controller with the on-line identifier.
     Scheduled,
@@ -64,17 +70,27 @@ pub fn physical_model(plant: &PlantParams) -> (f64, f64) {
     (a, (1.0 - a) * v_fs_m_per_s * plant.ts_s / plant.quantum_m)
 }
 
-/// The scheduled design for a twin, tuned on the *nominal* plant ([`PlantParams::default`]): its
-/// physical velocity model as the prior, its Coulomb friction as the compensated input map, the
-/// twin's baseline PID as the fallback. Only the sampling period, rail and quantum of `params`
-/// are used (the units the controller works in), not its mass or friction.
+/// The scheduled design for a twin, tuned on the default sled ([`PlantParams::default`]):
+/// [`scheduled_design_for`] with that sled as the nominal plant.
 pub fn scheduled_design(params: &TwinParams) -> Result<ScheduledDesign, String> {
+    scheduled_design_for(params, &PlantParams::default())
+}
+
+/// The scheduled design for the twin `params`, tuned on the plant `nominal`: the nominal plant's
+/// physical velocity model as the prior, its Coulomb friction as the compensated input map, the
+/// baseline PID of `params` as the fallback. Only the sampling period, rail and quantum of
+/// `params.plant` are used (the units the controller works in), not its mass or friction: on a
+/// perturbed plant the controller still believes the nominal physics.
+pub fn scheduled_design_for(
+    params: &TwinParams,
+    nominal: &PlantParams,
+) -> Result<ScheduledDesign, String> {
     let p = &params.plant;
     let nominal = PlantParams {
         ts_s: p.ts_s,
         u_max_v: p.u_max_v,
         quantum_m: p.quantum_m,
-        ..PlantParams::default()
+        ..nominal.clone()
     };
     let mut d = ScheduledDesign::new(baseline_design(&params.controller, p.ts_s, p.u_max_v));
     d.prior_model = Some(physical_model(&nominal));
@@ -246,7 +262,8 @@ pub struct ControlRun {
     pub summary: ControlSummary,
 }
 
-/// Runs `seeks` random seeks of `params` with `kind` in the loop.
+/// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller
+/// tuned on the default sled ([`scheduled_design`]).
 ///
 /// # Errors
 /// Twin or controller configuration errors.
@@ -256,10 +273,25 @@ pub fn run(
     seeks: u32,
     kind: ControllerKind,
 ) -> Result<ControlRun, String> {
+    run_tuned(params, &PlantParams::default(), seed, seeks, kind)
+}
+
+/// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller tuned
+/// on the plant `nominal` ([`scheduled_design_for`]).
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_tuned(
+    params: &TwinParams,
+    nominal: &PlantParams,
+    seed: u64,
+    seeks: u32,
+    kind: ControllerKind,
+) -> Result<ControlRun, String> {
     match kind {
         ControllerKind::Baseline => run_with(params, seed, seeks, None),
         ControllerKind::Scheduled => {
-            let design = scheduled_design(params)?;
+            let design = scheduled_design_for(params, nominal)?;
             run_with(params, seed, seeks, Some(&design))
         }
     }
@@ -395,23 +427,91 @@ pub fn perturbed(params: &TwinParams, mass: f64, friction: f64, quantum: f64) ->
     p
 }
 
+/// Scale factors of a plant the controller was not tuned on (`--perturb`): mass, friction
+/// (Coulomb and static together) and sensor quantum, each 1 when not given.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Perturbation {
+    /// Mass factor.
+    pub mass: f64,
+    /// Friction factor.
+    pub friction: f64,
+    /// Quantum factor.
+    pub quantum: f64,
+}
+
+impl Default for Perturbation {
+    fn default() -> Self {
+        Self {
+            mass: 1.0,
+            friction: 1.0,
+            quantum: 1.0,
+        }
+    }
+}
+
+impl Perturbation {
+    /// Parses `mass=0.7,friction=1.5,quantum=2` (any subset, any order).
+    ///
+    /// # Errors
+    /// An unknown key, a missing `=`, or a factor that is not finite and > 0.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut p = Self::default();
+        for item in text.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            let (key, value) = item
+                .split_once('=')
+                .ok_or_else(|| format!("--perturb: `{item}` is not KEY=FACTOR"))?;
+            let factor: f64 = value
+                .trim()
+                .parse()
+                .map_err(|e| format!("--perturb: `{item}`: {e}"))?;
+            if !(factor.is_finite() && factor > 0.0) {
+                return Err(format!(
+                    "--perturb: `{item}`: the factor must be finite and > 0"
+                ));
+            }
+            match key.trim() {
+                "mass" => p.mass = factor,
+                "friction" => p.friction = factor,
+                "quantum" => p.quantum = factor,
+                other => {
+                    return Err(format!(
+                        "--perturb: unknown key `{other}` (mass, friction, quantum)"
+                    ));
+                }
+            }
+        }
+        Ok(p)
+    }
+
+    /// `params` scaled by these factors ([`perturbed`]).
+    pub fn apply(&self, params: &TwinParams) -> TwinParams {
+        perturbed(params, self.mass, self.friction, self.quantum)
+    }
+}
+
 /// `sledid control`: runs, writes `DIR/summary.json` and `DIR/step_responses.png`, prints the
 /// summary.
+///
+/// The scheduled controller is tuned on the plant of `plant` (the default sled without one); with
+/// `perturb` the loop runs on that plant scaled, which the controller was not tuned on.
 ///
 /// # Errors
 /// Parameter, run, file or plot errors.
 pub fn control_cmd(
     plant: Option<&Path>,
+    perturb: Option<Perturbation>,
     kind: ControllerKind,
     seeks: u32,
     seed: u64,
     out: &Path,
 ) -> Result<(), String> {
-    let params = match plant {
+    let nominal = match plant {
         Some(p) => TwinParams::from_json_file(p).map_err(|e| e.to_string())?,
         None => TwinParams::default(),
     };
-    let run = run(&params, seed, seeks, kind)?;
+    let params = perturb.unwrap_or_default().apply(&nominal);
+    params.validate().map_err(|e| e.to_string())?;
+    let run = run_tuned(&params, &nominal.plant, seed, seeks, kind)?;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let json = serde_json::to_string_pretty(&run.summary).map_err(|e| e.to_string())?;
     let path = out.join("summary.json");

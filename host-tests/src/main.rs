@@ -67,9 +67,15 @@ enum Command {
     /// controller fed by the identifier): DIR/summary.json (settling, overshoot, limit-cycle
     /// pulses, unsettled seeks, fallbacks) and DIR/step_responses.png.
     Control {
-        /// Plant, reference and baseline parameters (JSON; missing keys take the defaults).
+        /// Plant, reference and baseline parameters (JSON; missing keys take the defaults). The
+        /// scheduled controller is tuned on this plant.
         #[arg(long)]
         plant: Option<PathBuf>,
+        /// Run on a plant the controller was not tuned on: the --plant plant (or the default)
+        /// scaled, e.g. `mass=0.7`, `friction=1.5,quantum=2` (mass, friction = Coulomb and
+        /// static, quantum).
+        #[arg(long)]
+        perturb: Option<String>,
         /// Which controller.
         #[arg(long, value_enum, default_value = "scheduled")]
         controller: ControllerArg,
@@ -543,20 +549,32 @@ fn main() -> ExitCode {
         Command::Demo { seed, out } => demo(seed, &out),
         Command::Control {
             plant,
+            perturb,
             controller,
             seeks,
             seed,
             out,
-        } => sledid_host::control_eval::control_cmd(
-            plant.as_deref(),
-            match controller {
-                ControllerArg::Baseline => sledid_host::control_eval::ControllerKind::Baseline,
-                ControllerArg::Scheduled => sledid_host::control_eval::ControllerKind::Scheduled,
-            },
-            seeks,
-            seed,
-            &out,
-        ),
+        } => perturb
+            .as_deref()
+            .map(sledid_host::control_eval::Perturbation::parse)
+            .transpose()
+            .and_then(|perturb| {
+                sledid_host::control_eval::control_cmd(
+                    plant.as_deref(),
+                    perturb,
+                    match controller {
+                        ControllerArg::Baseline => {
+                            sledid_host::control_eval::ControllerKind::Baseline
+                        }
+                        ControllerArg::Scheduled => {
+                            sledid_host::control_eval::ControllerKind::Scheduled
+                        }
+                    },
+                    seeks,
+                    seed,
+                    &out,
+                )
+            }),
         Command::Replay(args) => replay_cmd(&args),
         Command::Study(args) => study_cmd(&args),
         Command::Soak {
