@@ -48,8 +48,8 @@
 //! | vⱼ, αⱼ, 1/αⱼ, rⱼ, gⱼ, D (during the update) | mantissa in [2³¹, 2³²) and unclamped `i32` exponent | clamped once, when D is stored |
 //! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹] | scale 2ᵏ kept aside |
 //! | rⱼ = αⱼ₋₁/αⱼ | I1F31 `i32`, rounded, ≤ 2³¹ − 1 | |
-//! | κ (gain being built) | `i32` in units 2^e_κ, one e_κ per update: largest gⱼ below 2²³ (8 bits of headroom) | saturating, flagged |
-//! | Gⱼ = gⱼ·2⁸ in κ units | `i32` < 2³¹ | so that Uᵢⱼ·Gⱼ/2³² is in κ units (one `SMMULR`) |
+//! | κ (gain being built) | `i32` in units 2^e_κ, one e_κ per update: largest gⱼ below 2²⁵ (6 bits of headroom) | saturating, flagged |
+//! | Gⱼ = gⱼ·2⁶ in κ units | `i32` < 2³¹ | so that Uᵢⱼ·Gⱼ/2³⁰ is in κ units |
 //!
 //! # Scaling and overflow
 //! `f` is accumulated exactly in I24F40 (`i64`, saturating). Products of two `i32` are formed in
@@ -69,15 +69,20 @@
 //!
 //! # Accuracy
 //! Against a float64 textbook RLS on the same data: `host-tests/tests/rls_vs_f64.rs` (simulated
-//! closed-loop plants: ARX n = 4 within 3.6·10⁻⁴ relative, first-order OE within 1·10⁻³) and
-//! `emps_vs_f64.rs` (the EMPS recording: ARX(1,1) within 6.2·10⁻⁴, ARX(2,2) within 4·10⁻³ — measured
-//! 1.5–2.8·10⁻³, a figure that moves by ±50 % with the last bit of any intermediate, see the test;
-//! simulation RMS within 1.5 %). The limit is U's absolute I8F24 step, not the chain above.
-//!
+//! closed-loop plants: ARX n = 4 within 3.6·10⁻⁴ relative, first-order OE within 4.2·10⁻⁴, both
+//! held to 1·10⁻³) and `emps_vs_f64.rs` (the EMPS recording: ARX(1,1) within 6.2·10⁻⁴, held to
+//! 1·10⁻³; ARX(2,2) 2.2–2.5·10⁻³, held to 4·10⁻³ — its maximum moves by ±50 % with the last bit of
+//! any intermediate, and `emps_arx_rounding_spread` measures that spread over 24 position units:
+//! median 1.3·10⁻³ of final error, as before this kernel's cost work; simulation RMS within 1.5 %).
+//! The limit is U's absolute I8F24 step, not the scalar chain above. A κ headroom of 8 bits (one
+//! `SMMULR` for Uᵢⱼ·Gⱼ) and unsigned-only Newton corrections were both cheaper (−43 / −14
+//! instructions) but widened that spread (mean 1.5 and 1.7·10⁻³, max 3.3 and 4.1·10⁻³, against 1.3
+//! and 2.8·10⁻³; with 24 samples suggestive rather than conclusive), so neither is used.
+
 //! # Cost
-//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,000 instructions, ≈ 2,700
-//! cycles on Cortex-M4F and ≈ 7,000 cycles on M0+ (n = 2: ≈ 1,130 and ≈ 2,700). Per update that is
-//! about 70 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
+//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,060 instructions, ≈ 2,780
+//! cycles on Cortex-M4F and ≈ 7,040 cycles on M0+ (n = 2: ≈ 1,130 and ≈ 2,680). Per update that is
+//! about 78 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
 //! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
 //! 300 / 2,000 cycles are out of reach for this factorisation in integers.
 
@@ -92,7 +97,7 @@ use crate::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
 /// Headroom bits of the gain accumulator κ above the largest gⱼ.
-const KAPPA_HEADROOM_BITS: i32 = 8;
+const KAPPA_HEADROOM_BITS: i32 = 6;
 /// Uᵢⱼ (I8F24) × Gⱼ (gⱼ in κ units · 2^KAPPA_HEADROOM_BITS) → κ units.
 const UG_SHIFT: i32 = U_FRAC_BITS as i32 + KAPPA_HEADROOM_BITS;
 /// Largest supported parameter count (the α accumulation and κ headroom are sized for it).
@@ -669,7 +674,8 @@ impl RlsConfig {
             .zip(r_i1f31.iter().zip(col_norm.iter_mut()))
             .enumerate()
         {
-            // gⱼ in κ units (κⱼ's start) and ·2⁸ (Gⱼ, for Uᵢⱼ·Gⱼ/2³² → κ units).
+            // gⱼ in κ units (κⱼ's start) and ·2^KAPPA_HEADROOM_BITS (Gⱼ: Uᵢⱼ·Gⱼ/2^UG_SHIFT is
+            // in κ units).
             let sh = e_kappa - KAPPA_HEADROOM_BITS - gj.e;
             // Both below 2^31 (sh ≥ 1 for the largest gain; rounding may reach 2^31: clamped).
             let g_big = gj.shr_round(sh).min(i32::MAX as u32) as i32;

@@ -173,22 +173,12 @@ pub fn recip_q63(m: u32) -> u64 {
     let seed = RECIP_SEED_U1F15.get(idx).copied().unwrap_or(0x8000);
     let mut x = u32::from(seed) << 16; // ≈ 2^31·2^32/m, < 2^32 for every seed
     for _ in 0..2 {
-        // e = |2^63 − m·x| < 2^55 after the seed and < 2^46 after one step; x ± x·e/2^63 with
-        // unsigned multiplies only (no sign handling: cheaper on Armv6-M, one UMULL on Armv7-M).
-        let t = mul_u32_wide(m, x);
-        let (e, up) = if t <= 1 << 63 {
-            ((1u64 << 63) - t, true)
-        } else {
-            (t - (1u64 << 63), false)
-        };
-        let e_hi = (e >> 31) as u32; // < 2^24
-        let corr = (mul_u32_wide(e_hi, x) >> 32) as u32; // ≪ x
-        // Both corrections are truncated: downwards one more unit, so x stays ≤ 2^63/m.
-        x = if up {
-            x.saturating_add(corr)
-        } else {
-            x.saturating_sub(corr + 1)
-        };
+        // e = 2^63 − m·x, |e| < 2^55 after the seed and < 2^46 after one step.
+        let e = (1u64 << 63).wrapping_sub(mul_u32_wide(m, x)) as i64;
+        // x += x·e / 2^63, with e/2^31 in i32 range.
+        let e_hi = (e >> 31) as i32;
+        let corr = mul_i32_u32_wide(e_hi, x) >> 32;
+        x = (i64::from(x) + corr).clamp(0, i64::from(u32::MAX)) as u32;
     }
     u64::from(x)
 }
