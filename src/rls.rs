@@ -80,8 +80,8 @@
 //! and 2.8·10⁻³; with 24 samples suggestive rather than conclusive), so neither is used.
 
 //! # Cost
-//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,060 instructions, ≈ 2,780
-//! cycles on Cortex-M4F and ≈ 7,040 cycles on M0+ (n = 2: ≈ 1,130 and ≈ 2,680). Per update that is
+//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,040 instructions, ≈ 2,750
+//! cycles on Cortex-M4F and ≈ 7,060 cycles on M0+ (n = 2: ≈ 1,150 and ≈ 2,670). Per update that is
 //! about 78 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
 //! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
 //! 300 / 2,000 cycles are out of reach for this factorisation in integers.
@@ -741,7 +741,7 @@ impl RlsConfig {
         // Usually 0 ≤ s_θ + 32 ≤ 31 and ε·2^(s_θ+32) fits in 32 bits: then the rounded product is
         // one high-word multiply (SMMULR) of κ by that exact pre-shift, bit-identical to the
         // general path (the shift loses nothing; both round half up).
-        let a_theta = s_theta + 32;
+        let a_theta = s_theta.saturating_add(32);
         let eps_pre = if (0..=31).contains(&a_theta) {
             let shifted = eps.raw().wrapping_shl(a_theta.unsigned_abs());
             (shifted >> a_theta == eps.raw()).then_some(shifted)
