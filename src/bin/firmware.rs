@@ -289,6 +289,23 @@ mod target {
         (bottom, top)
     }
 
+    /// Builds the run into `slot` (`None` if the design does not build). Out of line, so that
+    /// the build's temporaries (the design in f64, the configuration before it is moved into
+    /// place) live in a frame that is gone before SysTick starts.
+    #[inline(never)]
+    fn install(
+        slot: &'static mut Option<Ticker>,
+        producer: Producer<'static, Telemetry>,
+    ) -> Option<&'static mut Ticker> {
+        let config = fw_config::design().build().ok()?;
+        Some(slot.insert(Ticker {
+            run: Run::from_config(config),
+            next: 0,
+            producer,
+            dropped: 0,
+        }))
+    }
+
     /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. `slot`
     /// is where the ticker (the run state) lives: the handler only gets a reference to it.
     fn run(
@@ -298,12 +315,10 @@ mod target {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
-        let run = match Run::new() {
-            Ok(run) => run,
-            Err(_) => {
-                defmt::println!("sledid-fw: the design does not build");
-                return false;
-            }
+        let (producer, mut consumer) = queue.split();
+        let Some(ticker) = install(slot, producer) else {
+            defmt::println!("sledid-fw: the design does not build");
+            return false;
         };
         defmt::println!(
             "sledid-fw: scheduled controller (EMPS cascade PID baseline) + ARX(1,1) velocity + Wiener at 2Ts, \
@@ -316,13 +331,6 @@ mod target {
             SYST_RELOAD,
             CORE_CLOCK_HZ
         );
-        let (producer, mut consumer) = queue.split();
-        let ticker = slot.insert(Ticker {
-            run,
-            next: 0,
-            producer,
-            dropped: 0,
-        });
         critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
 
         let mut syst = cp.SYST;

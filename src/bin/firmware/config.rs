@@ -346,8 +346,14 @@ impl Run {
     /// # Errors
     /// The design's [`ConfigError`] (none for the committed design; the tests build it).
     pub fn new() -> Result<Self, ConfigError> {
-        let config = design().build()?;
-        Ok(Self {
+        Ok(Self::from_config(design().build()?))
+    }
+
+    /// A fresh run of a built configuration (infallible, so that the firmware can construct it
+    /// in place).
+    #[inline(always)]
+    pub fn from_config(config: LoopConfig) -> Self {
+        Self {
             state: config.new_state(),
             config,
             checksum: Fnv1a64::new(),
@@ -357,7 +363,7 @@ impl Run {
             applied: 0,
             rejected: 0,
             skipped: 0,
-        })
+        }
     }
 
     /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
