@@ -29,7 +29,9 @@
 //!
 //! For `count_insns.py`, built with `--features fw-bench`, the image also exports `sledid_fw_bench_init` (`--init`),
 //! `sledid_fw_bench_step` (one sample as the interrupt does it: loop step and checksum, on record
-//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_loop` (the loop step alone) and
+//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_loop` (the loop step alone),
+//! `sledid_fw_bench_settle` (the loop step with the reference moved into the settle band, where
+//! the Wiener estimator adapts too: the worst case) and
 //! `sledid_fw_bench_overhead` (the same scaffolding without either, to subtract). The bench run
 //! never redesigns (the redesign is outside the interrupt): its gains stay those of the prior.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -489,6 +491,24 @@ mod target {
             })
         }
 
+        /// The full loop step in the settle band, where every estimator adapts: the drive of
+        /// record `i mod FIXTURE_SAMPLES`, a still reference r = 300 quanta and a measurement
+        /// within ±2 quanta of it (`y = r + (7i mod 5) − 2`), so the controller settles or holds
+        /// and the Wiener estimator (held during seeks, i.e. on the whole EMPS excerpt) updates on
+        /// every second sample. The worst case of the interrupt's cost; its outputs mean nothing.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_settle(i: u32) -> u32 {
+            with_bench(i, |run, sample| {
+                let r = sledid::PositionI48F16::from_counts(300);
+                let offset = i64::from(i.wrapping_mul(7) % 5) - 2;
+                let y = sledid::PositionI48F16::from_raw(r.raw() + (offset << 16));
+                let sample = Sample { r, y, u: sample.u };
+                let out = fw_config::loop_step(&run.config, &mut run.state, &sample);
+                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+            })
+        }
+
         /// The scaffolding of the bench exports without the step, to subtract.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
@@ -500,11 +520,12 @@ mod target {
         }
 
         /// The `count_insns.py` entry points, referenced from `main` so that they stay in the image.
-        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 3]) = (
+        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 4]) = (
             sledid_fw_bench_init,
             [
                 sledid_fw_bench_step,
                 sledid_fw_bench_loop,
+                sledid_fw_bench_settle,
                 sledid_fw_bench_overhead,
             ],
         );
