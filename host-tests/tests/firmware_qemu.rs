@@ -7,6 +7,8 @@
 //!   `FIXTURE_SAMPLES` (640) rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
 //!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
 //!   diff).
+//! - `host_replay_runs_the_whole_loop`: the host replay (`fw_config::replay`) is repeatable, the
+//!   supervisor accepts the EMPS velocity prior and the identifier's θ stays near it.
 //! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --profile firmware`, the
 //!   size-optimised release profile the image is meant to be flashed with, in its own target
@@ -129,6 +131,23 @@ fn fixture_is_the_emps_excerpt() {
     // The positions are on the encoder grid (whole quanta); the first row is 149 quanta.
     assert_eq!(samples.first().map(|s| s.y.raw()), Some(149 << 16));
     assert!(samples.iter().all(|s| s.y.raw() % (1 << 16) == 0));
+}
+
+#[test]
+fn host_replay_runs_the_whole_loop() {
+    let s = host_replay();
+    assert_eq!(s.samples as usize, FIXTURE_SAMPLES);
+    // The supervisor accepts the EMPS velocity prior (else the baseline would drive throughout).
+    assert!(!s.fallback, "{s}");
+    // The velocity identifier learns from the recorded drive; θ = [a₁, b₁] stays near the prior
+    // (a = 0.996, b = 69.4 from the whole recording).
+    let theta = s.theta_raw.map(|t| f64::from(t) / f64::from(1 << 20));
+    assert!(
+        (theta[0] + 0.996).abs() < 0.01 && (theta[1] - 69.4).abs() < 10.0,
+        "{s}"
+    );
+    // The same rule twice gives the same line.
+    assert_eq!(host_replay(), s);
 }
 
 #[test]

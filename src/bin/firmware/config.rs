@@ -18,9 +18,9 @@
 //!
 //! The firmware used to run an EMPS ARX(2,2) identifier on increments; it is folded into the
 //! loop, not kept beside it: the loop's ARX(1,1) velocity identifier is the ARX estimator of the
-//! budget line, a second ARX instance (RLS at N = 4, a third monomorphised kernel) would not fit
-//! the 32 KiB flash budget next to the controller and the Wiener estimator, and it would add
-//! ≈ 4,500 cycles per sample on M4F to a step already above its cycle budget (`BENCHMARKS.md`).
+//! budget line, and a second ARX instance (RLS at N = 4, a third monomorphised kernel of ≈ 5 KB)
+//! would add flash to an image already above the 32 KiB budget and ≈ 4,500 cycles per sample on
+//! M4F to a step already above its cycle budget (`BENCHMARKS.md`).
 //!
 //! # Redesign rule (deterministic)
 //! The slow-rate gain redesign (f32) is not in the interrupt. A redesign requested by sample k
