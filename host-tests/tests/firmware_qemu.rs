@@ -1,10 +1,14 @@
 //! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU, bit-exact with the host
-//! replay of the same recording through the same `sledid::step::step`.
+//! replay of the same recording through the same loop step (`sledid::sled_loop`, shadow mode:
+//! scheduled controller, supervisor, velocity identifier, decimator, Wiener model) and the same
+//! redesign rule (`fw_config::replay`).
 //!
 //! - `fixture_is_the_emps_excerpt`: the committed `fixtures/emps_excerpt.bin` is exactly the first
 //!   `FIXTURE_SAMPLES` (640) rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
 //!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
 //!   diff).
+//! - `host_replay_runs_the_whole_loop`: the host replay (`fw_config::replay`) is repeatable, the
+//!   supervisor accepts the EMPS velocity prior and the identifier's θ stays near it.
 //! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --profile firmware`, the
 //!   size-optimised release profile the image is meant to be flashed with, in its own target
@@ -27,7 +31,7 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use fw_config::{
-    FIXTURE_SAMPLES, QUANTUM_M, RECORD_BYTES, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
+    FIXTURE_SAMPLES, QUANTUM_M, RECORD_BYTES, RESULT_PREFIX, SAMPLE_PERIOD_NS, Summary,
     U_FULL_SCALE_V,
 };
 use sledid::{Sample, Scaling};
@@ -98,12 +102,7 @@ fn fixture_bytes() -> Vec<u8> {
 
 /// The host replay of the fixture: what the firmware must print.
 fn host_replay() -> Summary {
-    let bytes = fixture_bytes();
-    let mut run = Run::new().expect("the firmware design builds");
-    for i in 0..FIXTURE_SAMPLES {
-        run.step(&fw_config::record(&bytes, i).expect("record in the fixture"));
-    }
-    run.summary()
+    fw_config::replay(&fixture_bytes()).expect("the firmware design builds")
 }
 
 #[test]
@@ -132,6 +131,23 @@ fn fixture_is_the_emps_excerpt() {
     // The positions are on the encoder grid (whole quanta); the first row is 149 quanta.
     assert_eq!(samples.first().map(|s| s.y.raw()), Some(149 << 16));
     assert!(samples.iter().all(|s| s.y.raw() % (1 << 16) == 0));
+}
+
+#[test]
+fn host_replay_runs_the_whole_loop() {
+    let s = host_replay();
+    assert_eq!(s.samples as usize, FIXTURE_SAMPLES);
+    // The supervisor accepts the EMPS velocity prior (else the baseline would drive throughout).
+    assert!(!s.fallback, "{s}");
+    // The velocity identifier learns from the recorded drive; θ = [a₁, b₁] stays near the prior
+    // (a = 0.996, b = 69.4 from the whole recording).
+    let theta = s.theta_raw.map(|t| f64::from(t) / f64::from(1 << 20));
+    assert!(
+        (theta[0] + 0.996).abs() < 0.01 && (theta[1] - 69.4).abs() < 10.0,
+        "{s}"
+    );
+    // The same rule twice gives the same line.
+    assert_eq!(host_replay(), s);
 }
 
 #[test]
@@ -304,12 +320,8 @@ fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
     assert_eq!(expected.samples as usize, FIXTURE_SAMPLES);
     let log = decode_defmt(&elf, &run.defmt_frames);
     println!("{machine} ({target}) defmt log:\n{log}");
-    // defmt prints θ as a slice with spaces (`[1, 2]`); the rest of the line is the host's.
-    let theta = expected.theta_raw.map(|t| t.to_string()).join(", ");
-    let expected_line = format!(
-        "{RESULT_PREFIX} samples={} updates={} checksum={:#018x} theta=[{theta}]",
-        expected.samples, expected.updates, expected.checksum
-    );
+    // `Summary`'s Display is the firmware's defmt line (slices as `[a, b]`).
+    let expected_line = format!("{RESULT_PREFIX} {expected}");
     let line = log
         .lines()
         .find(|l| l.starts_with(RESULT_PREFIX))
@@ -325,7 +337,7 @@ fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
     // The firmware itself fails unless received + dropped = samples; drops (a full queue while
     // the main loop logs) are possible on a loaded machine and are only reported.
     assert!(
-        log.contains("telemetry: ") && log.contains(" dropped; stack high-water "),
+        log.contains("telemetry: ") && log.contains(" stalled ticks; stack high-water "),
         "{machine}: no telemetry summary in the defmt log"
     );
 }

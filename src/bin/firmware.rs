@@ -1,11 +1,19 @@
-//! `sledid-fw`: the identifier as firmware. SysTick fires once per sled sample period (Ts = 0.455 ms);
-//! its handler feeds the next sample of a recording embedded in flash (the first 640 rows of the
-//! EMPS benchmark, `fixtures/emps_excerpt.bin`) through [`sledid::step::step`], folds every output
-//! into a checksum and pushes a telemetry record into a fixed-capacity SPSC queue. The main loop
-//! drains the queue, counts the records and logs a few with defmt (over semihosting). At the end it
-//! prints the sample count, the checksum and the final θ, the stack high-water mark, and exits
-//! through semihosting; `host-tests/tests/firmware_qemu.rs` runs it under QEMU for both targets and
-//! asserts the result is bit-exact with the host replay of the same fixture.
+//! `sledid-fw`: the whole per-sample loop as firmware. SysTick fires once per sled sample period
+//! (Ts = 0.455 ms); its handler feeds the next sample of a recording embedded in flash (the first
+//! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
+//! ([`sledid::sled_loop::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
+//! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
+//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`]),
+//! folds every output into a checksum and pushes a telemetry record into a fixed-capacity SPSC
+//! queue. The main loop drains the queue, counts the records, logs a few with defmt (over
+//! semihosting), and runs the controller's slow-rate gain redesign (f32) whenever the handler asks
+//! for it: the handler hands the run over and steps nothing until the redesign is done, so the
+//! redesign requested by sample k always comes before sample k + 1, as in the host replay
+//! ([`fw_config`]'s redesign rule; late ticks are counted as stalls). At the end it prints the
+//! result line (sample and update counts, redesign outcomes, the checksum, the final θ of both
+//! estimators), the stack high-water mark, and exits through semihosting;
+//! `host-tests/tests/firmware_qemu.rs` runs it under QEMU for both targets and asserts the result
+//! is bit-exact with the host replay of the same fixture.
 //!
 //! ```text
 //! # Cortex-M4F (QEMU mps2-an386) and Cortex-M0 (QEMU microbit):
@@ -19,10 +27,13 @@
 //! links no `core::fmt` (≈ 5 KB of flash). Built for the host, `main` prints the configuration and
 //! the host replay's result line.
 //!
-//! For `count_insns.py` the image also exports `sledid_fw_bench_init` (`--init`),
-//! `sledid_fw_bench_step` (one sample as the interrupt does it: step and checksum, on record
-//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_identify` (the step alone) and `sledid_fw_bench_overhead` (the
-//! same scaffolding without either, to subtract).
+//! For `count_insns.py`, built with `--features fw-bench`, the image also exports `sledid_fw_bench_init` (`--init`),
+//! `sledid_fw_bench_step` (one sample as the interrupt does it: loop step and checksum, on record
+//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_loop` (the loop step alone),
+//! `sledid_fw_bench_settle` (the loop step with the reference moved into the settle band, where
+//! the Wiener estimator adapts too: the worst case) and
+//! `sledid_fw_bench_overhead` (the same scaffolding without either, to subtract). The bench run
+//! never redesigns (the redesign is outside the interrupt): its gains stay those of the prior.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -41,7 +52,7 @@ const _: () = assert!(
 
 #[cfg(target_os = "none")]
 mod target {
-    use core::cell::{Cell, RefCell};
+    use core::cell::Cell;
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m_rt::{entry, exception};
@@ -49,11 +60,11 @@ mod target {
     use critical_section::Mutex;
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
-    use sledid::{Sample, Status};
+    use sledid::control::Redesign;
 
     use super::FIXTURE;
     use super::fw_config::{
-        self, FIXTURE_SAMPLES, N, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
+        self, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
         U_FULL_SCALE_V,
     };
 
@@ -89,11 +100,17 @@ mod target {
     struct Telemetry {
         /// Sample index in the recording.
         index: u32,
-        /// ŷ(t), raw I16F16 (conditioned coordinates: increments, quanta).
+        /// The controller's drive u(k) (shadow: not applied), raw I16F16 full scale.
+        u_raw: i32,
+        /// The controller's region (0 seek, 1 settle, 2 hold).
+        region: u8,
+        /// The controller's flags (`ScheduledFlags` bits).
+        control_bits: u16,
+        /// Velocity identifier ŷ(t), raw I16F16 (quanta per sample).
         y_hat_raw: i32,
-        /// ε(t), raw I16F16.
+        /// Velocity identifier ε(t), raw I16F16.
         eps_raw: i32,
-        /// Status bits ([`Status`]).
+        /// Velocity identifier status bits ([`sledid::Status`]).
         status_bits: u16,
     }
 
@@ -104,11 +121,25 @@ mod target {
         summary: Summary,
         /// Telemetry records that found the queue full.
         dropped: u32,
+        /// Ticks that found the run with the main loop (a redesign not finished within a period).
+        stalls: u32,
+    }
+
+    /// What one tick did.
+    enum Tick {
+        /// Stepped a sample.
+        Stepped,
+        /// Stepped a sample, which asks for a redesign before the next one.
+        Redesign,
+        /// Stepped the last sample.
+        Finished(Finished),
+        /// Nothing left to step.
+        Idle,
     }
 
     /// Everything the SysTick handler owns: the run, the read position and the queue's producer.
     struct Ticker {
-        /// The identifier and its checksum.
+        /// The loop and its checksum.
         run: Run,
         /// Index of the next record.
         next: usize,
@@ -119,45 +150,72 @@ mod target {
     }
 
     impl Ticker {
-        /// One sample period: the next record through the identifier. `Some` right after the last
-        /// record, `None` otherwise (and on every tick after the end: nothing left to do).
-        fn tick(&mut self) -> Option<Finished> {
-            let sample = fw_config::record(FIXTURE, self.next)?;
+        /// One sample period: the next record through the loop.
+        fn tick(&mut self) -> Tick {
+            let Some(sample) = fw_config::record(FIXTURE, self.next) else {
+                return Tick::Idle;
+            };
             let out = self.run.step(&sample);
             let record = Telemetry {
                 index: self.next as u32,
-                y_hat_raw: out.y_hat.raw(),
-                eps_raw: out.eps.raw(),
-                status_bits: out.status.bits(),
+                u_raw: out.u.raw(),
+                region: out.region.index(),
+                control_bits: out.control.bits(),
+                y_hat_raw: out.velocity.y_hat.raw(),
+                eps_raw: out.velocity.eps.raw(),
+                status_bits: out.velocity.status.bits(),
             };
             if self.producer.enqueue(record).is_err() {
                 self.dropped = self.dropped.saturating_add(1);
             }
             self.next = self.next.saturating_add(1);
-            (self.next == FIXTURE_SAMPLES).then(|| Finished {
-                summary: self.run.summary(),
-                dropped: self.dropped,
-            })
+            if self.next == FIXTURE_SAMPLES {
+                Tick::Finished(Finished {
+                    summary: self.run.summary(),
+                    dropped: self.dropped,
+                    stalls: 0,
+                })
+            } else if self.run.redesign_pending() {
+                Tick::Redesign
+            } else {
+                Tick::Stepped
+            }
         }
     }
 
-    /// Main → SysTick, once: the ticker. Only the reference is handed over: the ticker itself (the
-    /// run state) lives once, in `main`'s static storage.
+    /// Main → SysTick: the ticker, at the start and back after each redesign. Only the reference
+    /// moves: the ticker itself (the run state) lives once, in `main`'s static storage.
     static HANDOFF: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
+    /// SysTick → main: the ticker, when the sample just stepped asks for a redesign.
+    static REDESIGN: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
     /// SysTick → main, once: the outcome.
     static DONE: Mutex<Cell<Option<Finished>>> = Mutex::new(Cell::new(None));
 
-    /// The sample-period interrupt: one step of the identifier on the next record. The reference to
-    /// the ticker is taken from [`HANDOFF`] on the first run, so the step itself runs outside any
-    /// critical section.
+    /// The sample-period interrupt: one step of the loop on the next record. The handler takes
+    /// the ticker from [`HANDOFF`] whenever it has none (at the start, after a redesign), so the
+    /// step itself runs outside any critical section; while the main loop holds it (a redesign
+    /// longer than a period) the tick steps nothing and counts a stall.
     #[exception]
     fn SysTick() {
         static mut TICKER: Option<&'static mut Ticker> = None;
+        static mut STALLS: u32 = 0;
         if TICKER.is_none() {
             *TICKER = critical_section::with(|cs| HANDOFF.borrow(cs).take());
         }
-        if let Some(done) = TICKER.as_deref_mut().and_then(Ticker::tick) {
-            critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
+        let Some(ticker) = TICKER.as_deref_mut() else {
+            *STALLS = STALLS.saturating_add(1);
+            return;
+        };
+        match ticker.tick() {
+            Tick::Stepped | Tick::Idle => {}
+            Tick::Redesign => {
+                let ticker = TICKER.take();
+                critical_section::with(|cs| REDESIGN.borrow(cs).set(ticker));
+            }
+            Tick::Finished(mut done) => {
+                done.stalls = *STALLS;
+                critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
+            }
         }
     }
 
@@ -233,6 +291,23 @@ mod target {
         (bottom, top)
     }
 
+    /// Builds the run into `slot` (`None` if the design does not build). Out of line, so that
+    /// the build's temporaries (the design in f64, the configuration before it is moved into
+    /// place) live in a frame that is gone before SysTick starts.
+    #[inline(never)]
+    fn install(
+        slot: &'static mut Option<Ticker>,
+        producer: Producer<'static, Telemetry>,
+    ) -> Option<&'static mut Ticker> {
+        let config = fw_config::design().build().ok()?;
+        Some(slot.insert(Ticker {
+            run: Run::from_config(config),
+            next: 0,
+            producer,
+            dropped: 0,
+        }))
+    }
+
     /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. `slot`
     /// is where the ticker (the run state) lives: the handler only gets a reference to it.
     fn run(
@@ -242,16 +317,15 @@ mod target {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
-        let run = match Run::new() {
-            Ok(run) => run,
-            Err(_) => {
-                defmt::println!("sledid-fw: the design does not build");
-                return false;
-            }
+        let (producer, mut consumer) = queue.split();
+        let Some(ticker) = install(slot, producer) else {
+            defmt::println!("sledid-fw: the design does not build");
+            return false;
         };
         defmt::println!(
-            "sledid-fw: ARX(2,2) on increments, lambda 0.995, trace(P) <= 100; {=usize} EMPS samples \
-             (quantum {=f64} m, u full scale {=f64} V); SysTick every {=u32} ns, reload {=u32} at {=u32} Hz",
+            "sledid-fw: scheduled controller (EMPS cascade PID baseline) + ARX(1,1) velocity + Wiener at 2Ts, \
+             shadow mode; {=usize} EMPS samples (quantum {=f64} m, u full scale {=f64} V); \
+             SysTick every {=u32} ns, reload {=u32} at {=u32} Hz",
             FIXTURE_SAMPLES,
             QUANTUM_M,
             U_FULL_SCALE_V,
@@ -259,13 +333,6 @@ mod target {
             SYST_RELOAD,
             CORE_CLOCK_HZ
         );
-        let (producer, mut consumer) = queue.split();
-        let ticker = slot.insert(Ticker {
-            run,
-            next: 0,
-            producer,
-            dropped: 0,
-        });
         critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
 
         let mut syst = cp.SYST;
@@ -276,8 +343,23 @@ mod target {
         syst.enable_counter();
 
         let mut received = 0u32;
+        let mut redesigns = 0u32;
         let finished = loop {
             drain(&mut consumer, &mut received);
+            if let Some(ticker) = critical_section::with(|cs| REDESIGN.borrow(cs).take()) {
+                let outcome = ticker.run.redesign();
+                let at = ticker.next;
+                critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
+                redesigns = redesigns.saturating_add(1);
+                if redesigns <= 3 {
+                    let what = match outcome {
+                        Redesign::Applied(_) => "applied",
+                        Redesign::Rejected(_) => "rejected",
+                        Redesign::Skipped => "skipped",
+                    };
+                    defmt::println!("redesign before sample {=usize}: {=str}", at, what);
+                }
+            }
             if let Some(f) = critical_section::with(|cs| DONE.borrow(cs).take()) {
                 break f;
             }
@@ -291,22 +373,32 @@ mod target {
         let s = finished.summary;
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
-            "{=str} samples={=u32} updates={=u32} checksum={=u64:#018x} theta={}",
+            "{=str} samples={=u32} updates={=u32} wiener_updates={=u32} redesigns={} fallback={=bool} \
+             checksum={=u64:#018x} theta={} wiener={}",
             RESULT_PREFIX,
             s.samples,
             s.updates,
+            s.wiener_updates,
+            s.redesigns,
+            s.fallback,
             s.checksum,
-            s.theta_raw
+            s.theta_raw,
+            s.wiener_raw
         );
         defmt::println!(
-            "telemetry: {=u32} received, {=u32} dropped; stack high-water {=usize} of {=usize} bytes",
+            "telemetry: {=u32} received, {=u32} dropped; {=u32} redesigns, {=u32} stalled ticks; \
+             stack high-water {=usize} of {=usize} bytes",
             received,
             finished.dropped,
+            redesigns,
+            finished.stalls,
             stack_used,
             stack_size
         );
         let counted = received.saturating_add(finished.dropped);
-        s.samples as usize == FIXTURE_SAMPLES && counted == s.samples
+        let [applied, rejected, skipped] = s.redesigns;
+        let outcomes = u32::from(applied) + u32::from(rejected) + u32::from(skipped);
+        s.samples as usize == FIXTURE_SAMPLES && counted == s.samples && outcomes == redesigns
     }
 
     /// Reset entry: paint the stack, run, exit through semihosting.
@@ -315,7 +407,8 @@ mod target {
         static mut QUEUE: Queue<Telemetry, QUEUE_SLOTS> = Queue::new();
         static mut TICKER: Option<Ticker> = None;
         // Nothing calls the bench exports; referencing them keeps the linker from dropping them.
-        core::hint::black_box(&BENCH_EXPORTS);
+        #[cfg(feature = "fw-bench")]
+        core::hint::black_box(&bench::BENCH_EXPORTS);
         paint_stack();
         let ok = run(QUEUE, TICKER);
         debug::exit(if ok {
@@ -343,68 +436,100 @@ mod target {
         }
     }
 
-    /// The run `count_insns.py` measures (independent of the firmware's own).
-    static BENCH: Mutex<RefCell<Option<Run>>> = Mutex::new(RefCell::new(None));
+    /// The `count_insns.py` entry points (`--features fw-bench`; the shipped image leaves them
+    /// out: their run would be a second copy of the loop state, 1.4 KB of RAM and flash).
+    #[cfg(feature = "fw-bench")]
+    mod bench {
+        use core::cell::RefCell;
 
-    /// `--init`: a fresh run for [`sledid_fw_bench_step`].
-    #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-    #[unsafe(no_mangle)]
-    pub extern "C" fn sledid_fw_bench_init() {
-        critical_section::with(|cs| BENCH.borrow(cs).replace(Run::new().ok()));
+        use critical_section::Mutex;
+        use sledid::{Sample, Status};
+
+        use super::super::FIXTURE;
+        use super::fw_config::{self, FIXTURE_SAMPLES, Run};
+
+        /// The run `count_insns.py` measures (independent of the firmware's own).
+        static BENCH: Mutex<RefCell<Option<Run>>> = Mutex::new(RefCell::new(None));
+
+        /// `--init`: a fresh run for [`sledid_fw_bench_step`].
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_init() {
+            critical_section::with(|cs| BENCH.borrow(cs).replace(Run::new().ok()));
+        }
+
+        /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
+        /// run was not initialised).
+        #[inline(always)]
+        fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
+            let sample = fw_config::record(FIXTURE, i as usize % FIXTURE_SAMPLES);
+            critical_section::with(|cs| match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
+                (Some(run), Some(sample)) => f(run, &sample),
+                _ => 0,
+            })
+        }
+
+        /// One sample as the interrupt does it: record `i mod FIXTURE_SAMPLES` through the loop
+        /// step and the checksum. Returns the drive's raw bits mixed with the status bits.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_step(i: u32) -> u32 {
+            with_bench(i, |run, sample| {
+                let out = run.step(sample);
+                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+            })
+        }
+
+        /// The full loop step alone ([`fw_config::loop_step`]: controller, supervisor, velocity
+        /// identifier, decimator, Wiener estimator; no checksum) on record `i mod FIXTURE_SAMPLES`.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_loop(i: u32) -> u32 {
+            with_bench(i, |run, sample| {
+                let out = fw_config::loop_step(&run.config, &mut run.state, sample);
+                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+            })
+        }
+
+        /// The full loop step in the settle band, where every estimator adapts: the drive of
+        /// record `i mod FIXTURE_SAMPLES`, a still reference r = 300 quanta and a measurement
+        /// within ±2 quanta of it (`y = r + (7i mod 5) − 2`), so the controller settles or holds
+        /// and the Wiener estimator (held during seeks, i.e. on the whole EMPS excerpt) updates on
+        /// every second sample. The worst case of the interrupt's cost; its outputs mean nothing.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_settle(i: u32) -> u32 {
+            with_bench(i, |run, sample| {
+                let r = sledid::PositionI48F16::from_counts(300);
+                let offset = i64::from(i.wrapping_mul(7) % 5) - 2;
+                let y = sledid::PositionI48F16::from_raw(r.raw() + (offset << 16));
+                let sample = Sample { r, y, u: sample.u };
+                let out = fw_config::loop_step(&run.config, &mut run.state, &sample);
+                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+            })
+        }
+
+        /// The scaffolding of the bench exports without the step, to subtract.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_overhead(i: u32) -> u32 {
+            with_bench(i, |run, sample| {
+                core::hint::black_box(run);
+                u32::from(sample.y.raw() as u16 & Status::UPDATED.bits())
+            })
+        }
+
+        /// The `count_insns.py` entry points, referenced from `main` so that they stay in the image.
+        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 4]) = (
+            sledid_fw_bench_init,
+            [
+                sledid_fw_bench_step,
+                sledid_fw_bench_loop,
+                sledid_fw_bench_settle,
+                sledid_fw_bench_overhead,
+            ],
+        );
     }
-
-    /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
-    /// run was not initialised).
-    #[inline(always)]
-    fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
-        let sample = fw_config::record(FIXTURE, i as usize % FIXTURE_SAMPLES);
-        critical_section::with(|cs| match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
-            (Some(run), Some(sample)) => f(run, &sample),
-            _ => 0,
-        })
-    }
-
-    /// One sample as the interrupt does it: record `i mod FIXTURE_SAMPLES` through the step and the checksum.
-    /// Returns the status bits.
-    #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-    #[unsafe(no_mangle)]
-    pub extern "C" fn sledid_fw_bench_step(i: u32) -> u32 {
-        with_bench(i, |run, sample| u32::from(run.step(sample).status.bits()))
-    }
-
-    /// The per-sample step alone ([`fw_config::identify`], no checksum) on record `i mod FIXTURE_SAMPLES`.
-    /// Returns the status bits.
-    #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-    #[unsafe(no_mangle)]
-    pub extern "C" fn sledid_fw_bench_identify(i: u32) -> u32 {
-        with_bench(i, |run, sample| {
-            let out = fw_config::identify(&run.config, &mut run.state, sample);
-            u32::from(out.status.bits())
-        })
-    }
-
-    /// The scaffolding of the bench exports without the step, to subtract.
-    #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-    #[unsafe(no_mangle)]
-    pub extern "C" fn sledid_fw_bench_overhead(i: u32) -> u32 {
-        with_bench(i, |run, sample| {
-            core::hint::black_box(run);
-            u32::from(sample.y.raw() as u16 & Status::UPDATED.bits())
-        })
-    }
-
-    /// The `count_insns.py` entry points, referenced from `main` so that they stay in the image.
-    static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 3]) = (
-        sledid_fw_bench_init,
-        [
-            sledid_fw_bench_step,
-            sledid_fw_bench_identify,
-            sledid_fw_bench_overhead,
-        ],
-    );
-
-    /// θ has N entries (the defmt result line prints them as a slice).
-    const _: () = assert!(N == 4);
 }
 
 /// Host build: prints the configuration and the host replay's result line (the line the firmware
@@ -417,19 +542,14 @@ fn main() {
         "recording: {FIXTURE_SAMPLES} EMPS samples, quantum {QUANTUM_M} m, u full scale {U_FULL_SCALE_V} V; \
          SysTick period {SAMPLE_PERIOD_NS} ns"
     );
-    let mut run = match fw_config::Run::new() {
-        Ok(run) => run,
+    let summary = match fw_config::replay(FIXTURE) {
+        Ok(summary) => summary,
         Err(e) => {
             eprintln!("sledid-fw: the design does not build: {e}");
             std::process::exit(1);
         }
     };
-    for i in 0..FIXTURE_SAMPLES {
-        if let Some(sample) = fw_config::record(FIXTURE, i) {
-            run.step(&sample);
-        }
-    }
-    println!("{RESULT_PREFIX} {}", run.summary());
+    println!("{RESULT_PREFIX} {summary}");
     println!(
         "Firmware under QEMU: cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
          | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw"

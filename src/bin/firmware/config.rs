@@ -1,11 +1,41 @@
 //! The one definition the firmware (`src/bin/firmware.rs`) and its host replay
-//! (`host-tests/tests/firmware_qemu.rs`) share, so they cannot drift: the identifier design, the
-//! layout of the embedded recording (`fixtures/emps_excerpt.bin`), the per-sample run with its
-//! output checksum, and the result line the firmware prints.
+//! (`host-tests/tests/firmware_qemu.rs`) share, so they cannot drift: the loop design (controller,
+//! identifiers), the layout of the embedded recording (`fixtures/emps_excerpt.bin`), the
+//! per-sample run with its output checksum, the redesign rule, and the result line the firmware
+//! prints.
 //!
 //! Both include this file with `#[path = …] mod fw_config;` (it is not a library module: it is
 //! the firmware's configuration, not part of the identification library). It lives in a
 //! sub-directory of `src/bin` so that cargo does not take it for a binary of its own.
+//!
+//! # The step: the whole loop in shadow mode
+//! Each record goes through [`sledid::sled_loop::LoopConfig::step_shadow`]`(r, y, u_recorded)`:
+//! the gain-scheduled controller (with its supervisor) computes its drive beside the rig's own
+//! controller (returned and checksummed, not applied: QEMU has no plant), its ARX(1,1) velocity
+//! identifier and the Wiener model at 2·Ts (after the two-channel half-band ÷2 decimator) learn
+//! from the recorded drive, the one that explains y. This is the full step of issue 6's budget
+//! line (controller + ARX estimator + Wiener estimator + decimator + supervisor).
+//!
+//! The firmware used to run an EMPS ARX(2,2) identifier on increments; it is folded into the
+//! loop, not kept beside it: the loop's ARX(1,1) velocity identifier is the ARX estimator of the
+//! budget line, and a second ARX instance (RLS at N = 4, a third monomorphised kernel of ≈ 5 KB)
+//! would add flash to an image already above the 32 KiB budget and ≈ 4,500 cycles per sample on
+//! M4F to a step already above its cycle budget (`BENCHMARKS.md`).
+//!
+//! # Redesign rule (deterministic)
+//! The slow-rate gain redesign (f32) is not in the interrupt. A redesign requested by sample k
+//! ([`Run::redesign_pending`]) runs before sample k + 1 is stepped, never later: the firmware's
+//! SysTick handler hands the run to the main loop and steps nothing until it gets it back (a late
+//! tick is counted as a stall, not skipped: the replay resumes at k + 1), and [`replay`] — the
+//! host's run of the same rule — redesigns between the same two samples. A request by the last
+//! sample is left pending in both.
+//!
+//! # Units and constants (EMPS rig, `shared/data` README)
+//! Positions in encoder quanta ([`QUANTUM_M`]), u as a fraction of [`U_FULL_SCALE_V`], the
+//! recording's sample period [`EMPS_TS_S`] = 1 ms (the controller's and the models' time unit;
+//! the firmware replays one record per sled period, [`SAMPLE_PERIOD_NS`]). Baseline: the rig's
+//! cascade PID, `PidDesign::position_velocity_cascade(1 ms, 10 V, kp 160.18 1/s, kv 243.45 V/(m/s)
+//! × 5·10⁻⁸ m)`. See [`design`] for the priors.
 //!
 //! # Fixture layout
 //! [`FIXTURE_SAMPLES`] records of [`RECORD_BYTES`] bytes, little-endian, no header:
@@ -22,24 +52,51 @@
 //!
 //! # Checksum
 //! FNV-1a 64 (offset basis `0xcbf29ce484222325`, prime `0x100000001b3`) over, for every sample in
-//! order, the little-endian bytes of the [`StepOutput`] fields: y, u, ŷ, ε (`i32` raw each), θ
-//! (`N` × `i32` raw) and the status bits (`u16`): 34 bytes per sample for N = 4.
+//! order, the little-endian bytes of the [`LoopOutput`] fields:
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 4 | u, the controller's drive (`i32` raw I16F16) |
+//! | 1 | region (`Region::index`: 0 seek, 1 settle, 2 hold) |
+//! | 2 | controller flags (`ScheduledFlags` bits, `u16`) |
+//! | 4 × 4 | velocity identifier: y, u, ŷ, ε (`i32` raw each) |
+//! | 2 × 4 | velocity identifier θ = [a₁, b₁] (`i32` raw I12F20) |
+//! | 2 | velocity identifier status bits (`u16`) |
+//! | 1 | 1 if the Wiener estimator ran on this sample (every second sample), else 0 |
+//! | 4 + 4 + 2 | only when it ran: Wiener ŷ, ε (`i32` raw), status bits (`u16`) |
+//!
+//! 34 bytes per sample, 44 on the samples where the Wiener estimator runs.
 
 use core::fmt;
 
 use sledid::conditioning::Conditioning;
+use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
 use sledid::linear::{LinearDesign, Structure};
+use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput};
+use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
+use sledid::step::IdentifierDesign;
 use sledid::{PositionI48F16, Sample, SignalI16F16};
 
-/// Number of parameters: ARX(na = 2, nb = 2), θ = [a₁, a₂, b₁, b₂].
-pub const N: usize = 4;
+/// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
+pub const N: usize = VELOCITY_N;
+
+/// Parameters of the Wiener model (first order, θ = [f₁, b₁, w, 1/range, bias]).
+pub const NW: usize = WIENER_N;
 
 /// The sled's sample period (Ts = 0.455 ms), ns: the firmware's SysTick period. The EMPS excerpt
 /// was recorded at 1 ms; the firmware replays it one record per sled sample period.
 pub const SAMPLE_PERIOD_NS: u32 = 455_000;
+
+/// The EMPS recording's (and its controller's) sample period, s.
+pub const EMPS_TS_S: f64 = 1e-3;
+
+/// EMPS position-loop gain kp, 1/s (`shared/data` README).
+pub const EMPS_KP_PER_S: f64 = 160.18;
+
+/// EMPS velocity-loop gain kv, V/(m/s) (`shared/data` README).
+pub const EMPS_KV_V_S_PER_M: f64 = 243.45;
 
 /// Sensor quantum of the EMPS encoder, m (one [`PositionI48F16`] unit).
 pub const QUANTUM_M: f64 = 5e-8;
@@ -57,19 +114,85 @@ pub const RECORD_BYTES: usize = 12;
 /// What starts the firmware's result line (followed by a space and the [`Summary`]).
 pub const RESULT_PREFIX: &str = "sledid-fw result:";
 
-/// The identifier the firmware runs: increments (Δy, Δu) of the EMPS excerpt, ARX(2, 2), nk = 1,
-/// λ = 0.995, P₀ = 100·I, trace(P) ≤ 100, a dead zone of ¼ quantum on |ε|, denominator kept in
-/// |z| ≤ 1.
-pub fn design() -> IdentifierDesign<N> {
-    let mut model = LinearDesign::<N>::new(Structure::Arx, 2, 2);
-    model.rls = RlsDesign {
+/// Prior velocity model (a, b) of the EMPS rig: the least-squares ARX(1,1) fit
+/// `Δy(k+1) = a·Δy(k) + b·u(k)` (Δy in quanta per 1 ms sample, u in full scale) over all 24,841
+/// rows of `DATA_EMPS.csv`: a = 0.99594, b = 69.363 (residual RMS 2.31 quanta per sample). The
+/// 640-row excerpt alone gives a = 0.99468, b = 70.50.
+pub const EMPS_VELOCITY_PRIOR: (f64, f64) = (0.995_943, 69.362_5);
+
+/// Largest velocity pole the supervisor accepts for EMPS. The default (0.98) is the sled's, at
+/// 0.455 ms; the EMPS rig's mechanical time constant is ≈ 0.25 s, a pole of 0.996 at 1 ms, so the
+/// default would refuse the rig's own model. 0.999 (τ = 1 s) still refuses an integrator.
+pub const EMPS_POLE_MAX: f64 = 0.999;
+
+/// Linear OE(1) prior [f₁, b₁] of the Wiener model: `ŷ(k) = −f₁·ŷ(k−1) + b₁·u(k−1)` for the
+/// centred position y − r (quanta) against u (full scale) at 2 ms, least-squares output error over
+/// every second row of the 640-row excerpt (pole on a 0.001 grid, b₁ in closed form): pole 0.984,
+/// b₁ = −1,145.5 (a closed loop: the tracking error goes against the drive), RMS error 642 quanta
+/// of a 6,775-quantum RMS signal.
+pub const WIENER_PRIOR: [f64; 2] = [-0.984, -1_145.5];
+
+/// The Wiener neuron's input range: max |y − r| over the excerpt (11,529 quanta), rounded up; u
+/// and Δy as measured (max |u| 0.41 full scale, max |Δ(y − r)| 442 quanta per 2 ms).
+pub const WIENER_RANGES: InputRanges = InputRanges {
+    u: 0.41,
+    y: 11_530.0,
+    dy: 442.0,
+};
+
+/// The rig's controller as the baseline (and fallback) of the scheduled controller.
+pub fn baseline() -> PidDesign {
+    PidDesign::position_velocity_cascade(
+        EMPS_TS_S,
+        U_FULL_SCALE_V,
+        EMPS_KP_PER_S,
+        EMPS_KV_V_S_PER_M * QUANTUM_M,
+    )
+}
+
+/// The whole loop the firmware runs:
+/// - controller: `ScheduledDesign::new(baseline())` (default regions, poles, supervisor limits
+///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation;
+/// - velocity identifier: ARX(1,1) on Δy against u (`DifferencedOutput`), θ₀ = [−a, b] of the
+///   prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
+///   (16 in a row) — `host-tests/src/control_eval.rs`'s `identifier_design`;
+/// - Wiener model at 2·Ts: `from_linear(Wiener, WIENER_PRIOR, WIENER_RANGES)`, λ = 0.995,
+///   P₀ = 100·I, dead zone ¼ quantum, trace(P) ≤ 100.
+pub fn design() -> LoopDesign {
+    let mut controller = ScheduledDesign::new(baseline());
+    controller.supervisor.pole_max = EMPS_POLE_MAX;
+    controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
+
+    let mut velocity = LinearDesign::<N>::new(Structure::Arx, 1, 1);
+    velocity.theta0 = [-EMPS_VELOCITY_PRIOR.0, EMPS_VELOCITY_PRIOR.1];
+    velocity.rls = RlsDesign {
+        lambda: 0.995,
+        p0: 10.0,
+        dead_zone: 0.25,
+        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+        outlier_threshold: 40.0,
+        outlier_limit: 16,
+        ..RlsDesign::default()
+    };
+
+    let mut wiener = NonlinearDesign::<NW>::from_linear(
+        NonlinearStructure::Wiener,
+        &WIENER_PRIOR,
+        WIENER_RANGES,
+    );
+    wiener.rls = RlsDesign {
         lambda: 0.995,
         p0: 100.0,
         dead_zone: 0.25,
         anti_windup: AntiWindup::TraceLimit { max: 100.0 },
         ..RlsDesign::default()
     };
-    IdentifierDesign::new(Conditioning::Differenced, model)
+
+    LoopDesign {
+        controller,
+        velocity: IdentifierDesign::new(Conditioning::DifferencedOutput, velocity),
+        wiener: Some(wiener),
+    }
 }
 
 /// Fraction bits of a [`PositionI48F16`] (y is stored in whole quanta).
@@ -165,14 +288,27 @@ impl Fnv1a64 {
     }
 
     /// Folds in one step's outputs (see the module doc for the byte order).
-    pub fn write_output(&mut self, out: &StepOutput<N>) {
-        for raw in [out.y.raw(), out.u.raw(), out.y_hat.raw(), out.eps.raw()] {
+    pub fn write_output(&mut self, out: &LoopOutput) {
+        self.write(&out.u.raw().to_le_bytes());
+        self.write(&[out.region.index()]);
+        self.write(&out.control.bits().to_le_bytes());
+        let v = &out.velocity;
+        for raw in [v.y.raw(), v.u.raw(), v.y_hat.raw(), v.eps.raw()] {
             self.write(&raw.to_le_bytes());
         }
-        for t in &out.theta {
+        for t in &v.theta {
             self.write(&t.raw().to_le_bytes());
         }
-        self.write(&out.status.bits().to_le_bytes());
+        self.write(&v.status.bits().to_le_bytes());
+        match &out.wiener {
+            Some(w) => {
+                self.write(&[1]);
+                self.write(&w.y_hat.raw().to_le_bytes());
+                self.write(&w.eps.raw().to_le_bytes());
+                self.write(&w.status.bits().to_le_bytes());
+            }
+            None => self.write(&[0]),
+        }
     }
 
     /// The hash so far.
@@ -187,17 +323,21 @@ impl Default for Fnv1a64 {
     }
 }
 
-/// One replay of the identifier: configuration, state, and the checksum of everything it produced.
+/// One replay of the loop: configuration, state, and the checksum of everything it produced.
 /// The firmware's SysTick handler and the host replay both step this, one sample at a time.
 #[derive(Clone, Debug)]
 pub struct Run {
-    /// The validated configuration of [`design`].
-    pub(crate) config: IdentifierConfig<N>,
-    /// The identifier's state.
-    pub(crate) state: IdentifierState<N>,
+    /// The validated configuration of [`design`] (its controller gains swapped by redesigns).
+    pub(crate) config: LoopConfig,
+    /// The loop's state.
+    pub(crate) state: LoopState,
     checksum: Fnv1a64,
     samples: u32,
     updates: u32,
+    wiener_updates: u32,
+    applied: u16,
+    rejected: u16,
+    skipped: u16,
 }
 
 impl Run {
@@ -206,52 +346,114 @@ impl Run {
     /// # Errors
     /// The design's [`ConfigError`] (none for the committed design; the tests build it).
     pub fn new() -> Result<Self, ConfigError> {
-        let config = design().build()?;
-        Ok(Self {
+        Ok(Self::from_config(design().build()?))
+    }
+
+    /// A fresh run of a built configuration (infallible, so that the firmware can construct it
+    /// in place).
+    #[inline(always)]
+    pub fn from_config(config: LoopConfig) -> Self {
+        Self {
             state: config.new_state(),
             config,
             checksum: Fnv1a64::new(),
             samples: 0,
             updates: 0,
-        })
+            wiener_updates: 0,
+            applied: 0,
+            rejected: 0,
+            skipped: 0,
+        }
     }
 
-    /// One sample through [`sledid::step::step`], folded into the checksum. Never panics.
+    /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
     #[inline(never)]
-    pub fn step(&mut self, sample: &Sample) -> StepOutput<N> {
-        let out = identify(&self.config, &mut self.state, sample);
+    pub fn step(&mut self, sample: &Sample) -> LoopOutput {
+        let out = loop_step(&self.config, &mut self.state, sample);
         self.checksum.write_output(&out);
         self.samples = self.samples.wrapping_add(1);
-        if out.status.contains(sledid::Status::UPDATED) {
+        if out.velocity.status.contains(sledid::Status::UPDATED) {
             self.updates = self.updates.wrapping_add(1);
         }
+        if out
+            .wiener
+            .is_some_and(|w| w.status.contains(sledid::Status::UPDATED))
+        {
+            self.wiener_updates = self.wiener_updates.wrapping_add(1);
+        }
         out
+    }
+
+    /// The controller asks for a gain redesign (run [`Self::redesign`] before the next sample).
+    pub fn redesign_pending(&self) -> bool {
+        self.state.redesign_pending()
+    }
+
+    /// The slow-rate redesign (f32; from the main loop, not the interrupt), counted by outcome.
+    pub fn redesign(&mut self) -> Redesign {
+        let outcome = self.config.redesign(&mut self.state);
+        let count = match outcome {
+            Redesign::Applied(_) => &mut self.applied,
+            Redesign::Rejected(_) => &mut self.rejected,
+            Redesign::Skipped => &mut self.skipped,
+        };
+        *count = count.wrapping_add(1);
+        outcome
     }
 
     /// What the run has produced so far.
     pub fn summary(&self) -> Summary {
         let mut theta_raw = [0i32; N];
-        for (dst, t) in theta_raw.iter_mut().zip(self.state.model().theta()) {
+        for (dst, t) in theta_raw
+            .iter_mut()
+            .zip(self.state.velocity().model().theta())
+        {
             *dst = t.raw();
+        }
+        let mut wiener_raw = [0i32; NW];
+        if let Some(w) = self.state.wiener() {
+            for (dst, t) in wiener_raw.iter_mut().zip(w.theta()) {
+                *dst = t.raw();
+            }
         }
         Summary {
             samples: self.samples,
             updates: self.updates,
+            wiener_updates: self.wiener_updates,
+            redesigns: [self.applied, self.rejected, self.skipped],
+            fallback: self.config.controller().fallback(),
             checksum: self.checksum.value(),
             theta_raw,
+            wiener_raw,
         }
     }
 }
 
-/// The per-sample step alone ([`sledid::step::step`] on this design's `N`), kept out of line so
-/// that it exists once in the image and `count_insns.py` can measure it apart from the checksum.
+/// The host's replay of a fixture under the [redesign rule](self#redesign-rule-deterministic):
+/// what the firmware must report.
+///
+/// # Errors
+/// The design's [`ConfigError`].
+#[allow(dead_code)] // the firmware steps the run from its interrupt instead
+pub fn replay(fixture: &[u8]) -> Result<Summary, ConfigError> {
+    let mut run = Run::new()?;
+    let mut index = 0;
+    while let Some(sample) = record(fixture, index) {
+        run.step(&sample);
+        index += 1;
+        if run.redesign_pending() && record(fixture, index).is_some() {
+            run.redesign();
+        }
+    }
+    Ok(run.summary())
+}
+
+/// The per-sample step alone ([`LoopConfig::step_shadow`] with the recorded drive), kept out of
+/// line so that it exists once in the image and `count_insns.py` can measure it apart from the
+/// checksum.
 #[inline(never)]
-pub fn identify(
-    config: &IdentifierConfig<N>,
-    state: &mut IdentifierState<N>,
-    sample: &Sample,
-) -> StepOutput<N> {
-    sledid::step::step(config, state, sample)
+pub fn loop_step(config: &LoopConfig, state: &mut LoopState, sample: &Sample) -> LoopOutput {
+    config.step_shadow(state, sample.r, sample.y, sample.u)
 }
 
 /// The outcome of a run: what the firmware prints and the host test compares, field by field.
@@ -259,28 +461,52 @@ pub fn identify(
 pub struct Summary {
     /// Samples stepped.
     pub samples: u32,
-    /// Samples on which θ and P were updated.
+    /// Samples on which the velocity identifier updated θ and P.
     pub updates: u32,
+    /// Samples on which the Wiener estimator updated θ and P.
+    pub wiener_updates: u32,
+    /// Redesigns [applied, rejected, skipped].
+    pub redesigns: [u16; 3],
+    /// The baseline PID drives at the end (no accepted model).
+    pub fallback: bool,
     /// FNV-1a 64 of every output (module doc).
     pub checksum: u64,
-    /// Final θ = [a₁, a₂, b₁, b₂], raw I12F20.
+    /// Final velocity θ = [a₁, b₁], raw I12F20.
     pub theta_raw: [i32; N],
+    /// Final Wiener θ, raw I12F20.
+    pub wiener_raw: [i32; NW],
+}
+
+/// `[a, b, c]`: a slice as defmt prints it.
+fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::Result {
+    f.write_str("[")?;
+    for (k, t) in items.iter().enumerate() {
+        if k > 0 {
+            f.write_str(", ")?;
+        }
+        write!(f, "{t}")?;
+    }
+    f.write_str("]")
 }
 
 impl fmt::Display for Summary {
-    /// `samples=… updates=… checksum=0x…(16 hex digits) theta=[a1,a2,b1,b2]` (raw I12F20).
+    /// `samples=… updates=… wiener_updates=… redesigns=[applied, rejected, skipped]
+    /// fallback=… checksum=0x…(16 hex digits) theta=[a1, b1] wiener=[…]` (raw I12F20), exactly
+    /// the firmware's defmt line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "samples={} updates={} checksum={:#018x} theta=[",
-            self.samples, self.updates, self.checksum
+            "samples={} updates={} wiener_updates={} redesigns=",
+            self.samples, self.updates, self.wiener_updates
         )?;
-        for (k, t) in self.theta_raw.iter().enumerate() {
-            if k > 0 {
-                f.write_str(",")?;
-            }
-            write!(f, "{t}")?;
-        }
-        f.write_str("]")
+        write_list(f, &self.redesigns)?;
+        write!(
+            f,
+            " fallback={} checksum={:#018x} theta=",
+            self.fallback, self.checksum
+        )?;
+        write_list(f, &self.theta_raw)?;
+        f.write_str(" wiener=")?;
+        write_list(f, &self.wiener_raw)
     }
 }
