@@ -471,6 +471,10 @@ struct StudyArgs {
     /// Samples per window with `--twin`.
     #[arg(long, default_value_t = 100)]
     twin_window: usize,
+    /// Twin parameters with `--twin` (JSON, e.g. `host-tests/plants/paper_sled.json`: the paper's
+    /// kind of badly tuned baseline); default: the built-in twin.
+    #[arg(long, requires = "twin")]
+    plant: Option<PathBuf>,
     /// Column mapping by name or 0-based index, e.g. `u=u_v,y=y_m,r=r_m,t=t_s`.
     #[arg(long, required_unless_present = "twin", conflicts_with = "twin")]
     columns: Option<String>,
@@ -513,7 +517,15 @@ fn study_cmd(a: &StudyArgs) -> Result<(), String> {
         ..StudyOptions::default()
     };
     let study = match (&a.file, &a.columns, a.ident, a.valid) {
-        _ if a.twin => study::protocol::run_twin(a.seed, a.twin_window, &a.out, options),
+        _ if a.twin => {
+            let params = match &a.plant {
+                Some(p) => {
+                    sledid_host::twin::TwinParams::from_json_file(p).map_err(|e| e.to_string())?
+                }
+                None => sledid_host::twin::TwinParams::default(),
+            };
+            study::protocol::run_twin_with(params, a.seed, a.twin_window, &a.out, options)
+        }
         (Some(file), Some(columns), Some(ident), Some(valid)) => study::run_files(&StudyInput {
             ident_file: file.clone(),
             valid_file: a.valid_file.clone(),

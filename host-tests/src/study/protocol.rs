@@ -98,7 +98,18 @@ pub fn twin_input(
     dir: &Path,
     options: StudyOptions,
 ) -> Result<(StudyInput, TwinProtocol), StudyError> {
-    let twin = Twin::run_baseline(TwinParams::default(), seed).map_err(StudyError::Twin)?;
+    twin_input_with(TwinParams::default(), seed, window, dir, options)
+}
+
+/// [`twin_input`] for a twin of any parameters (e.g. `host-tests/plants/paper_sled.json`).
+pub fn twin_input_with(
+    params: TwinParams,
+    seed: u64,
+    window: usize,
+    dir: &Path,
+    options: StudyOptions,
+) -> Result<(StudyInput, TwinProtocol), StudyError> {
+    let twin = Twin::run_baseline(params, seed).map_err(StudyError::Twin)?;
     std::fs::create_dir_all(dir).map_err(|source| StudyError::Io {
         path: dir.to_path_buf(),
         source,
@@ -135,7 +146,18 @@ pub fn run_twin(
     dir: &Path,
     options: StudyOptions,
 ) -> Result<Study, StudyError> {
-    let (input, protocol) = twin_input(seed, window, dir, options)?;
+    run_twin_with(TwinParams::default(), seed, window, dir, options)
+}
+
+/// [`run_twin`] for a twin of any parameters.
+pub fn run_twin_with(
+    params: TwinParams,
+    seed: u64,
+    window: usize,
+    dir: &Path,
+    options: StudyOptions,
+) -> Result<Study, StudyError> {
+    let (input, protocol) = twin_input_with(params, seed, window, dir, options)?;
     let mut study = run_files(&input)?;
     let n = protocol.ident.settling_samples_in_window;
     study.notes.push(format!(
