@@ -95,6 +95,11 @@ enum Command {
         /// Twin seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Twin parameters (JSON). Default: the paper-like sled carried in the binary
+        /// (`host-tests/plants/paper_sled.json`: the paper's kind of badly tuned baseline, which
+        /// oscillates while settling and ends in the ±1-quantum limit cycle).
+        #[arg(long)]
+        plant: Option<PathBuf>,
         /// Output directory.
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
@@ -325,8 +330,15 @@ fn demo_design() -> IdentifierDesign<4> {
     IdentifierDesign::new(Conditioning::DifferencedOutput, model)
 }
 
-fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
-    let params = TwinParams::default();
+/// The demo's twin: the paper-like sled, carried in the binary so `demo` runs from any folder.
+const PAPER_SLED_JSON: &str = include_str!("../plants/paper_sled.json");
+
+fn demo(seed: u64, plant: Option<&std::path::Path>, out: &PathBuf) -> Result<(), String> {
+    let params = match plant {
+        Some(p) => TwinParams::from_json_file(p),
+        None => TwinParams::from_json_str(PAPER_SLED_JSON),
+    }
+    .map_err(|e| e.to_string())?;
     let twin = Twin::run_baseline(params.clone(), seed).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let csv_path = out.join("twin.csv");
@@ -436,7 +448,8 @@ fn demo(seed: u64, out: &PathBuf) -> Result<(), String> {
     // The paper's study on the same twin: ~100 settling samples of one seek to identify, of the next
     // to validate, every linear and nonlinear model at Ts and after ÷2, the paper's figures beside.
     let study_dir = out.join("study");
-    let mut study = sledid_host::study::protocol::run_twin(
+    let mut study = sledid_host::study::protocol::run_twin_with(
+        params.clone(),
         seed,
         sledid_host::study::protocol::PAPER_WINDOW,
         &study_dir,
@@ -556,9 +569,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command.unwrap_or(Command::Demo {
         seed: 1,
+        plant: None,
         out: PathBuf::from("out/demo"),
     }) {
-        Command::Demo { seed, out } => demo(seed, &out),
+        Command::Demo { seed, plant, out } => demo(seed, plant.as_deref(), &out),
         Command::Control {
             plant,
             perturb,
