@@ -100,12 +100,30 @@ fn scheduled_controller_meets_the_targets_on_tuned_and_untuned_plants() {
 /// inverse-map table's interpolation with it.
 #[test]
 fn fixed_point_matches_float64_in_closed_loop() {
-    for (compensated, plant) in [(true, (1.0, 1.0, 1.0)), (false, (1.3, 0.5, 1.0))] {
+    // (input map, Wiener output map, plant scales)
+    for (compensated, output_map, plant) in [
+        (true, false, (1.0, 1.0, 1.0)),
+        (false, false, (1.3, 0.5, 1.0)),
+        (false, true, (1.0, 1.0, 1.0)),
+    ] {
         let params = perturbed(&TwinParams::default(), plant.0, plant.1, plant.2);
         let mut design = scheduled_design(&params).unwrap();
         if !compensated {
             design.compensation = None;
         }
+        if output_map {
+            // A Wiener output map m(x) = x + 2·tanh(0.2·x) over ±40 quanta.
+            let neuron = sledid::neuron::NeuronDesign {
+                w: 2.0,
+                a: 0.2,
+                c: 0.0,
+            }
+            .build()
+            .unwrap();
+            design.output_map =
+                Some(sledid::control::InverseInputMap::from_neuron(&neuron, 40.0).unwrap());
+        }
+        let compensated = compensated || output_map;
         let config0 = design.build().unwrap();
         let mut config = config0;
         let mut state = config.new_state();
@@ -510,4 +528,46 @@ proptest! {
             }
         }
     }
+}
+
+/// An identity output map (w = 0) changes nothing: the closed loop is bit-identical to the
+/// controller without one; a real map changes the Settle law only.
+#[test]
+fn output_map_acts_only_in_settle_and_identity_is_exact() {
+    let params = TwinParams::default();
+    let design = scheduled_design(&params).unwrap();
+    let map = |w: f64| {
+        let n = sledid::neuron::NeuronDesign { w, a: 0.2, c: 0.0 }
+            .build()
+            .unwrap();
+        Some(sledid::control::InverseInputMap::from_neuron(&n, 40.0).unwrap())
+    };
+    let run = |output_map| {
+        let mut d = design;
+        d.output_map = output_map;
+        let mut lp = sledid_host::control_eval::ScheduledLoop::new(
+            &d,
+            &identifier_design(d.prior_model.unwrap()),
+        )
+        .unwrap();
+        let mut p = params.clone();
+        p.reference.seek_count = 10;
+        let mut twin = Twin::new(p, 5).unwrap();
+        twin.run(&mut lp);
+        let u: Vec<f64> = twin.samples().iter().map(|s| s.u_v).collect();
+        (u, lp.trace)
+    };
+    let (u_none, t_none) = run(None);
+    let (u_identity, t_identity) = run(map(0.0));
+    assert_eq!(u_none, u_identity);
+    assert_eq!(t_none, t_identity);
+    let (u_map, t_map) = run(map(2.0));
+    // Identical until the first Settle sample, different afterwards.
+    let first_settle = t_none
+        .iter()
+        .position(|(r, _)| *r == Region::Settle)
+        .unwrap();
+    assert_eq!(u_none[..first_settle], u_map[..first_settle]);
+    assert!(u_none.iter().zip(&u_map).any(|(a, b)| a != b));
+    assert_eq!(t_map.len(), t_none.len());
 }

@@ -76,6 +76,8 @@ pub struct ScheduledF64 {
     gains: Option<GainsF64>,
     /// (w, a, c) of the compensated input map.
     map: Option<(f64, f64, f64)>,
+    /// (w, a, c) of the compensated Wiener output map.
+    output_map: Option<(f64, f64, f64)>,
     y1: f64,
     y2: f64,
     r1: f64,
@@ -105,14 +107,15 @@ impl ScheduledF64 {
         let gains = design
             .prior_model
             .map(|(a, b)| place_f64(a, b, p.seek_pole, p.settle_pole, p.feedforward));
-        let map = design.compensation.map(|m| {
+        let wac = |m: sledid::control::InverseInputMap| {
             let n = m.neuron();
             (n.w().to_f64(), n.a().to_f64(), n.c().to_f64())
-        });
+        };
         Ok(Self {
             design: *design,
             gains,
-            map,
+            map: design.compensation.map(wac),
+            output_map: design.output_map.map(wac),
             y1: 0.0,
             y2: 0.0,
             r1: 0.0,
@@ -134,22 +137,17 @@ impl ScheduledF64 {
 
     /// h(u).
     pub fn forward(&self, u: f64) -> f64 {
-        self.map.map_or(u, |(w, a, c)| u + w * (a * u + c).tanh())
+        forward_of(self.map, u)
     }
 
     /// h⁻¹(v) by bisection (h increasing; h(u) − u ∈ [−|w|, |w|]).
     pub fn inverse(&self, v: f64) -> f64 {
-        let Some((w, _, _)) = self.map else { return v };
-        let (mut lo, mut hi) = (v - w.abs() - 1e-9, v + w.abs() + 1e-9);
-        for _ in 0..80 {
-            let mid = 0.5 * (lo + hi);
-            if self.forward(mid) <= v {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
+        inverse_of(self.map, v)
+    }
+
+    /// The Settle law's error: −m⁻¹(y − r) with an output map, else e.
+    fn settle_error(&self, e: f64) -> f64 {
+        -inverse_of(self.output_map, -e)
     }
 
     /// A redesign is due.
@@ -261,12 +259,16 @@ impl ScheduledF64 {
                     + gains.ka_ff * ar,
                 false,
             ),
-            Region::Settle => (gains.kp_settle * e - gains.kd2_settle * dy2, true),
+            Region::Settle => (
+                gains.kp_settle * self.settle_error(e) - gains.kd2_settle * dy2,
+                true,
+            ),
         };
         if returning || (region != previous && previous != Region::Hold) {
             self.integral = (self.last_v - terms).clamp(-i_max, i_max);
         } else if integrating {
-            let candidate = (self.integral + gains.ki_settle * e).clamp(-i_max, i_max);
+            let candidate =
+                (self.integral + gains.ki_settle * self.settle_error(e)).clamp(-i_max, i_max);
             let v = terms + candidate;
             let winding = (v > u_max && candidate > self.integral)
                 || (v < -u_max && candidate < self.integral);
@@ -282,4 +284,24 @@ impl ScheduledF64 {
         self.last_u = u;
         (u, region, false)
     }
+}
+
+/// x + w·tanh(a·x + c) (the identity without a map).
+fn forward_of(map: Option<(f64, f64, f64)>, x: f64) -> f64 {
+    map.map_or(x, |(w, a, c)| x + w * (a * x + c).tanh())
+}
+
+/// The inverse of [`forward_of`] by bisection (increasing; forward(x) − x ∈ [−|w|, |w|]).
+fn inverse_of(map: Option<(f64, f64, f64)>, v: f64) -> f64 {
+    let Some((w, _, _)) = map else { return v };
+    let (mut lo, mut hi) = (v - w.abs() - 1e-9, v + w.abs() + 1e-9);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if forward_of(map, mid) <= v {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
