@@ -19,14 +19,16 @@
 //! main loop calls [`LoopConfig::redesign`] (f32, outside the interrupt).
 
 use crate::boundary::{PositionI48F16, Sample};
+use crate::conditioning::Conditioning;
 use crate::control::{
     ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledState,
 };
 use crate::decimate::{DecimatorConfig, DecimatorState};
 use crate::error::ConfigError;
 use crate::fixed::SignalI16F16;
-use crate::linear::{Estimate, LinearDesign};
+use crate::linear::{Estimate, LinearDesign, Structure};
 use crate::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
+use crate::rls::{AntiWindup, RlsDesign};
 use crate::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity).
@@ -43,6 +45,27 @@ pub struct LoopDesign {
     pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
     /// The Wiener model at 2·Ts on the centred position (`None`: not run).
     pub wiener: Option<NonlinearDesign<WIENER_N>>,
+}
+
+/// The controller's identifier as the loop expects it: ARX(1, 1) on the velocity Δy against u
+/// (the first-order velocity model `sledid::control::design` places gains from), started from the
+/// velocity model `prior` = (a, b), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100,
+/// outlier gate 40 quanta per sample (16 in a row).
+pub fn velocity_identifier(
+    prior: (f64, f64),
+) -> IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>> {
+    let mut model = LinearDesign::<VELOCITY_N>::new(Structure::Arx, 1, 1);
+    model.theta0 = [-prior.0, prior.1];
+    model.rls = RlsDesign {
+        lambda: 0.995,
+        p0: 10.0,
+        dead_zone: 0.25,
+        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
+        outlier_threshold: 40.0,
+        outlier_limit: 16,
+        ..RlsDesign::default()
+    };
+    IdentifierDesign::new(Conditioning::DifferencedOutput, model)
 }
 
 /// Validated configuration of the loop.
@@ -63,7 +86,6 @@ pub struct LoopState {
     wiener: Option<NonlinearState<WIENER_N>>,
     decimate_y: DecimatorState,
     decimate_u: DecimatorState,
-    last_theta: [crate::fixed::ParamI12F20; VELOCITY_N],
 }
 
 /// What one sample produced.
@@ -102,11 +124,9 @@ impl LoopDesign {
 impl LoopConfig {
     /// A fresh state.
     pub fn new_state(&self) -> LoopState {
-        let velocity = self.velocity.new_state();
         LoopState {
             controller: self.controller.new_state(),
-            last_theta: *velocity.model().theta(),
-            velocity,
+            velocity: self.velocity.new_state(),
             report: ModelReport::default(),
             wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
             decimate_y: self.decimator.new_state(),
@@ -123,7 +143,7 @@ impl LoopConfig {
     /// the main loop when [`LoopState::redesign_pending`], not from the interrupt).
     pub fn redesign(&mut self, state: &mut LoopState) -> Redesign {
         self.controller
-            .redesign(&mut state.controller, &state.last_theta)
+            .redesign(&mut state.controller, state.velocity.model().theta())
     }
 
     /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
@@ -164,7 +184,6 @@ impl LoopConfig {
             status: velocity.status,
             eps: velocity.eps,
         };
-        state.last_theta = velocity.theta;
         let mut wiener = None;
         if let (Some(cfg), Some(st)) = (&self.wiener, state.wiener.as_mut()) {
             let mut sat = false;

@@ -22,11 +22,9 @@
 //!   of a faster-than-reference seek, which the reference does not ask for).
 
 use serde::Serialize;
-use sledid::conditioning::Conditioning;
 use sledid::control::{InverseInputMap, Redesign, Region, ScheduledDesign, ScheduledFlags};
-use sledid::linear::{Estimate, LinearDesign, Structure};
+use sledid::linear::Estimate;
 use sledid::nonlinear::NonlinearDesign;
-use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::sled_loop::{LoopConfig, LoopDesign, LoopState, WIENER_N};
 use sledid::step::IdentifierDesign;
 use std::path::Path;
@@ -44,22 +42,10 @@ pub enum ControllerKind {
     Scheduled,
 }
 
-/// The identifier feeding the scheduled controller: ARX(1, 1) on the velocity Δy against u (the
-/// first-order velocity model of `sledid::control::design`), λ = 0.995, dead zone ¼ quantum, trace
-/// ≤ 100, outlier gate 40 quanta per sample, started from `prior` = (a, b).
+/// The identifier feeding the scheduled controller: the library's
+/// [`sledid::sled_loop::velocity_identifier`], the one the firmware runs too.
 pub fn identifier_design(prior: (f64, f64)) -> IdentifierDesign<2> {
-    let mut model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
-    model.theta0 = [-prior.0, prior.1];
-    model.rls = RlsDesign {
-        lambda: 0.995,
-        p0: 10.0,
-        dead_zone: 0.25,
-        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
-        outlier_threshold: 40.0,
-        outlier_limit: 16,
-        ..RlsDesign::default()
-    };
-    IdentifierDesign::new(Conditioning::DifferencedOutput, model)
+    sledid::sled_loop::velocity_identifier(prior)
 }
 
 /// The velocity model (a, b) of a plant from its physics (viscous pole, drive gain; friction
@@ -250,6 +236,30 @@ pub struct ControlSummary {
     pub redesigns: RedesignCounts,
     /// Largest |u| applied, V.
     pub u_peak_v: f64,
+}
+
+impl ControlSummary {
+    /// The header of [`Self::table_row`].
+    pub const TABLE_HEADER: &'static str = "| plant | controller | settling median / p90 / max (ms) | after arrival, median (ms) | reference bound (ms) | overshoot median / max (quanta) | limit-cycle pulses | hold pulses | unsettled | fallbacks |\n|---|---|---|---|---|---|---|---|---|---|";
+
+    /// One Markdown table row (the columns of [`Self::TABLE_HEADER`]) for the plant `name`.
+    pub fn table_row(&self, name: &str) -> String {
+        format!(
+            "| {name} | {:?} | {:.1} / {:.1} / {:.1} | {:.1} | {:.1} | {:.0} / {:.0} | {} | {} | {} | {} |",
+            self.controller,
+            self.settling_ms.median,
+            self.settling_ms.p90,
+            self.settling_ms.max,
+            self.settling_after_arrival_ms.median,
+            self.reference_bound_ms.median,
+            self.overshoot_quanta.median,
+            self.overshoot_quanta.max,
+            self.limit_cycle_pulses,
+            self.hold_pulses,
+            self.unsettled,
+            self.fallbacks
+        )
+    }
 }
 
 /// A finished closed-loop run.

@@ -182,20 +182,7 @@ fn paper_sled_baseline_oscillates_while_settling_and_ends_in_the_limit_cycle() {
 }
 
 fn row(name: &str, s: &ControlSummary) {
-    println!(
-        "| {name} | {:?} | {:.1} / {:.1} / {:.1} | {:.1} | {:.0} / {:.0} | {} | {} | {} | {} |",
-        s.controller,
-        s.settling_ms.median,
-        s.settling_ms.p90,
-        s.settling_ms.max,
-        s.settling_after_arrival_ms.median,
-        s.overshoot_quanta.median,
-        s.overshoot_quanta.max,
-        s.limit_cycle_pulses,
-        s.hold_pulses,
-        s.unsettled,
-        s.fallbacks
-    );
+    println!("{}", s.table_row(name));
 }
 
 /// Issue 5's targets on the paper-like twin, asserted in full on every plant, 100 seeks each:
@@ -206,10 +193,7 @@ fn row(name: &str, s: &ControlSummary) {
 #[test]
 fn scheduled_meets_the_targets_on_the_paper_sled_and_its_perturbations() {
     let nominal = paper_sled();
-    println!(
-        "| plant | controller | settling median / p90 / max (ms) | after arrival median (ms) | overshoot median / max (quanta) | limit-cycle pulses | hold pulses | unsettled | fallbacks |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("{}", ControlSummary::TABLE_HEADER);
     let mut failures = Vec::new();
     for (name, mass, friction, quantum) in PLANTS {
         let params = Perturbation {

@@ -34,20 +34,7 @@ const PLANTS: [(&str, f64, f64, f64); 7] = [
 ];
 
 fn row(name: &str, s: &ControlSummary) {
-    println!(
-        "| {name} | {:?} | {:.1} / {:.1} / {:.1} | {:.1} | {:.0} / {:.0} | {} | {} | {} | {} |",
-        s.controller,
-        s.settling_ms.median,
-        s.settling_ms.p90,
-        s.settling_ms.max,
-        s.reference_bound_ms.median,
-        s.overshoot_quanta.median,
-        s.overshoot_quanta.max,
-        s.limit_cycle_pulses,
-        s.hold_pulses,
-        s.unsettled,
-        s.fallbacks
-    );
+    println!("{}", s.table_row(name));
 }
 
 /// Issue 5's targets. Asserted in full: no unsettled seek and no limit-cycle pulse, on every
@@ -58,10 +45,7 @@ fn row(name: &str, s: &ControlSummary) {
 /// median is within 5 ms of that bound and not worse than the baseline's by more than 1 ms.
 #[test]
 fn scheduled_controller_meets_the_targets_on_tuned_and_untuned_plants() {
-    println!(
-        "| plant | controller | settling median / p90 / max (ms) | reference bound (ms) | overshoot median / max (quanta) | limit-cycle pulses | hold pulses | unsettled | fallbacks |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("{}", ControlSummary::TABLE_HEADER);
     let mut failures = Vec::new();
     for (name, mass, friction, quantum) in PLANTS {
         let params = perturbed(&TwinParams::default(), mass, friction, quantum);

@@ -69,14 +69,11 @@
 
 use core::fmt;
 
-use sledid::conditioning::Conditioning;
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
-use sledid::linear::{LinearDesign, Structure};
 use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
-use sledid::step::IdentifierDesign;
 use sledid::{PositionI48F16, Sample, SignalI16F16};
 
 /// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
@@ -155,7 +152,7 @@ pub fn baseline() -> PidDesign {
 ///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation;
 /// - velocity identifier: ARX(1,1) on Δy against u (`DifferencedOutput`), θ₀ = [−a, b] of the
 ///   prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
-///   (16 in a row) — `host-tests/src/control_eval.rs`'s `identifier_design`;
+///   (16 in a row) — `sledid::sled_loop::velocity_identifier`;
 /// - Wiener model at 2·Ts: `from_linear(Wiener, WIENER_PRIOR, WIENER_RANGES)`, λ = 0.995,
 ///   P₀ = 100·I, dead zone ¼ quantum, trace(P) ≤ 100.
 pub fn design() -> LoopDesign {
@@ -163,17 +160,7 @@ pub fn design() -> LoopDesign {
     controller.supervisor.pole_max = EMPS_POLE_MAX;
     controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
 
-    let mut velocity = LinearDesign::<N>::new(Structure::Arx, 1, 1);
-    velocity.theta0 = [-EMPS_VELOCITY_PRIOR.0, EMPS_VELOCITY_PRIOR.1];
-    velocity.rls = RlsDesign {
-        lambda: 0.995,
-        p0: 10.0,
-        dead_zone: 0.25,
-        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
-        outlier_threshold: 40.0,
-        outlier_limit: 16,
-        ..RlsDesign::default()
-    };
+    let velocity = sledid::sled_loop::velocity_identifier(EMPS_VELOCITY_PRIOR);
 
     let mut wiener = NonlinearDesign::<NW>::from_linear(
         NonlinearStructure::Wiener,
@@ -190,7 +177,7 @@ pub fn design() -> LoopDesign {
 
     LoopDesign {
         controller,
-        velocity: IdentifierDesign::new(Conditioning::DifferencedOutput, velocity),
+        velocity,
         wiener: Some(wiener),
     }
 }

@@ -4,7 +4,7 @@
 use plotters::prelude::*;
 use std::path::Path;
 
-use super::{FONT, MEASURED, MODEL, font_ready, range, tick};
+use super::{FONT, MEASURED, MODEL, font_ready, legend, range, tick};
 use crate::study::StudyError;
 
 /// One curve of a panel.
@@ -99,11 +99,6 @@ fn draw(area: &super::Area, p: &CurvePanel) -> super::Drawn {
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
         }
     }
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut c, SeriesLabelPosition::UpperLeft)?;
     Ok(())
 }

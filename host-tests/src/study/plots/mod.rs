@@ -157,6 +157,20 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
     Ok(infos)
 }
 
+/// The legend every panel of the study draws: `position`, 13 pt, a white translucent box.
+pub(super) fn legend<'a, CT: plotters::coord::CoordTranslate>(
+    c: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+    position: SeriesLabelPosition,
+) -> Drawn {
+    c.configure_series_labels()
+        .position(position)
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 /// `[lo, hi]` of `values` with a relative margin; never empty.
 pub(super) fn range(values: impl Iterator<Item = f64>, margin: f64) -> (f64, f64) {
     let (lo, hi) = values

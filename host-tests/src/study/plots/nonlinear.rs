@@ -5,7 +5,7 @@
 use plotters::prelude::*;
 
 use super::time::{sim_panel, xcorr_panel};
-use super::{Area, Drawn, FONT, MEASURED, MODEL, range, tick};
+use super::{Area, Drawn, FONT, MEASURED, MODEL, legend, range, tick};
 use crate::study::report::RateReport;
 
 /// Colours of the ŷ(t−1) slices of eq. 6 after the first (which is [`MODEL`]).
@@ -98,12 +98,7 @@ pub(super) fn map_panels(area: &Area, rate: &RateReport) -> Drawn {
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
         }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
     }
     Ok(())
 }

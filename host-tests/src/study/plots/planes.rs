@@ -3,7 +3,7 @@
 
 use plotters::prelude::*;
 
-use super::{Area, Drawn, FONT, INPUT, MODEL, tick};
+use super::{Area, Drawn, FONT, INPUT, MODEL, legend, tick};
 use crate::study::report::RateReport;
 
 /// Fig. 8: criterion surfaces of the first-order models with both minima.
@@ -68,12 +68,7 @@ pub(super) fn surface_panels(area: &Area, rate: &RateReport) -> Drawn {
                 .label(label)
                 .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
         }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
         colour_bar(&bar_area, zmin, zmax)?;
     }
     Ok(())

@@ -3,7 +3,7 @@
 
 use plotters::prelude::*;
 
-use super::{Area, Drawn, FONT, INPUT, MEASURED, MODEL, range, tick, time_axis};
+use super::{Area, Drawn, FONT, INPUT, MEASURED, MODEL, legend, range, tick, time_axis};
 use crate::study::Dataset;
 use crate::study::analysis::CrossCorrelation;
 use crate::study::report::{ModelReport, RateReport};
@@ -60,12 +60,7 @@ pub(super) fn data_panels(area: &Area, rate: &RateReport) -> Drawn {
     ))?
     .label("y")
     .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MEASURED));
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut c, SeriesLabelPosition::UpperRight)?;
 
     let (pu, py) = &rate.spectra;
     let f1 = pu.freq_hz.last().copied().unwrap_or(1.0);
@@ -91,12 +86,7 @@ pub(super) fn data_panels(area: &Area, rate: &RateReport) -> Drawn {
         .label(name)
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
     }
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut c, SeriesLabelPosition::UpperRight)?;
     Ok(())
 }
 
@@ -173,12 +163,7 @@ pub(super) fn sim_panel(panel: &Area, d: &Dataset, title: String, sim: &[f64]) -
     ))?
     .label("simulated")
     .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], MODEL));
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut c, SeriesLabelPosition::UpperRight)?;
     Ok(())
 }
 
