@@ -6,6 +6,7 @@ pub mod compare;
 pub mod control_eval;
 pub mod control_plot;
 pub mod faults;
+pub mod pacing;
 pub mod plants;
 pub mod recording;
 pub mod reference;

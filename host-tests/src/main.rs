@@ -89,6 +89,17 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Can this machine pace a replay at Ts? Spin on the clock doing nothing else and count the
+    /// gaps (the thread not running): each gap of at least Ts is an overrun of any paced replay,
+    /// whatever its per-sample cost. Prints a JSON report.
+    PacingProbe {
+        /// How long to spin, s.
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// The sampling period to judge against, s.
+        #[arg(long, default_value_t = 0.000455)]
+        ts: f64,
+    },
     /// Generate a twin recording, replay it through the fixed-point identifier and its float64
     /// reference, write DIR/trace.csv and DIR/summary.json.
     Demo {
@@ -274,8 +285,17 @@ fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
             );
             if let Some(d) = s.deadline {
                 line += &format!(
-                    " | lateness p50 {:.1} µs p99 {:.1} µs max {:.1} µs, overruns {}",
-                    d.p50_us, d.p99_us, d.max_us, d.overruns
+                    " | lateness p50 {:.1} µs p99 {:.1} µs max {:.1} µs, overruns {} ({} after \
+                     host stalls: {} stalls, longest {:.0} µs) | work p99 {:.1} µs max {:.1} µs",
+                    d.p50_us,
+                    d.p99_us,
+                    d.max_us,
+                    d.overruns,
+                    d.overruns_after_stall,
+                    d.stalls.count,
+                    d.stalls.max_us,
+                    d.work_p99_us,
+                    d.work_max_us
                 );
             }
             println!("{line}\n  → {}", dir.display());
@@ -565,6 +585,27 @@ fn study_cmd(a: &StudyArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn pacing_probe(seconds: f64, ts: f64) -> Result<(), String> {
+    if !(seconds.is_finite() && seconds > 0.0 && ts.is_finite() && ts > 0.0) {
+        return Err(format!(
+            "pacing-probe: --seconds ({seconds}) and --ts ({ts}) must be positive"
+        ));
+    }
+    let r = sledid_host::pacing::probe(seconds, ts);
+    let mut j = serde_json::to_value(r).map_err(|e| e.to_string())?;
+    if let Some(o) = j.as_object_mut() {
+        o.insert(
+            "gaps_over_ts_per_minute".into(),
+            r.gaps_over_ts_per_minute().into(),
+        );
+    }
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&j).map_err(|e| e.to_string())?
+    );
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command.unwrap_or(Command::Demo {
@@ -615,6 +656,7 @@ fn main() -> ExitCode {
             seeks,
             out,
         } => twin_cmd(seed, plant.as_deref(), seeks, &out),
+        Command::PacingProbe { seconds, ts } => pacing_probe(seconds, ts),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

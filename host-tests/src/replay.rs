@@ -10,6 +10,7 @@
 
 use crate::compare::relative_distance;
 use crate::faults::{Fault, Injector, Reading};
+use crate::pacing::{StallTracker, Stalls};
 use crate::recording::{ReaderOptions, RecordingReader};
 use crate::reference::batch::{rms_error, simulate};
 use crate::reference::linear::LinearF64;
@@ -134,6 +135,18 @@ pub struct Deadlines {
     pub max_us: f64,
     /// Samples whose processing ended after the next sample's deadline.
     pub overruns: usize,
+    /// Of those, the ones in a backlog that began with a stall of the thread while it waited (a
+    /// clock gap of at least [`crate::pacing::STALL_US`] inside the spin, where no code of ours
+    /// runs): the machine's lateness, not the replay's.
+    pub overruns_after_stall: usize,
+    /// Stalls seen while waiting for deadlines.
+    pub stalls: Stalls,
+    /// Time from waking to the end of the sample's work (step, reference, trace line), µs: median.
+    pub work_p50_us: f64,
+    /// … 99th percentile.
+    pub work_p99_us: f64,
+    /// … maximum (a stall during the work shows here).
+    pub work_max_us: f64,
 }
 
 /// What a replay produced (also written as `summary.json`).
@@ -366,7 +379,13 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
         Rate::Paced(f) => Some(Duration::from_secs_f64(ts_s / f)),
     };
     let mut lateness_us: Vec<f64> = Vec::new();
+    let mut work_us: Vec<f64> = Vec::new();
     let mut overruns = 0usize;
+    let mut overruns_after_stall = 0usize;
+    let mut stalls = StallTracker::default();
+    // A backlog (samples finishing after the next deadline) and whether a stall began it.
+    let (mut in_backlog, mut backlog_from_stall) = (false, false);
+    let mut woke = Instant::now();
     let start = Instant::now();
     let mut n = 0usize;
     for (k, item) in reader.by_ref().enumerate() {
@@ -381,10 +400,14 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
             if deadline > now + Duration::from_millis(2) {
                 std::thread::sleep(deadline - now - Duration::from_millis(1));
             }
-            while Instant::now() < deadline {
-                std::hint::spin_loop();
-            }
-            lateness_us.push((Instant::now() - deadline).as_secs_f64() * 1e6);
+            let stalled;
+            (woke, stalled) = stalls.spin_until(deadline);
+            backlog_from_stall = if in_backlog {
+                backlog_from_stall || stalled
+            } else {
+                stalled
+            };
+            lateness_us.push((woke - deadline).as_secs_f64() * 1e6);
         }
         let reading = injector.apply(k, s);
         let converted = match reading {
@@ -403,10 +426,14 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
             (Err(e), BadSample::Stop) => return Err(e),
             (Err(_), BadSample::Hold) => (s, reject(&cfg, &mut st)),
         };
-        if let Some(p) = period
-            && Instant::now() > start + p * (k as u32 + 1)
-        {
-            overruns += 1;
+        if let Some(p) = period {
+            let end = Instant::now();
+            work_us.push((end - woke).as_secs_f64() * 1e6);
+            in_backlog = end > start + p * (k as u32 + 1);
+            if in_backlog {
+                overruns += 1;
+                overruns_after_stall += usize::from(backlog_from_stall);
+            }
         }
         for (c, (flag, _)) in counts.iter_mut().zip(Status::NAMES.iter()) {
             *c += usize::from(o.status.contains(*flag));
@@ -473,11 +500,18 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
     let deadline = period.map(|_| {
         let mut sorted = lateness_us.clone();
         sorted.sort_by(f64::total_cmp);
+        let mut work = work_us.clone();
+        work.sort_by(f64::total_cmp);
         Deadlines {
             p50_us: percentile(&sorted, 0.5),
             p99_us: percentile(&sorted, 0.99),
             max_us: sorted.last().copied().unwrap_or(0.0),
             overruns,
+            overruns_after_stall,
+            stalls: stalls.stalls(),
+            work_p50_us: percentile(&work, 0.5),
+            work_p99_us: percentile(&work, 0.99),
+            work_max_us: work.last().copied().unwrap_or(0.0),
         }
     });
     let summary = ReplaySummary {

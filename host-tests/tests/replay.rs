@@ -149,6 +149,15 @@ fn paced_replay_reports_deadlines() {
     );
     assert_eq!(sum.samples, 400);
     assert!(d.p50_us >= 0.0 && d.p99_us >= d.p50_us && d.max_us >= d.p99_us);
+    assert!(
+        d.work_p50_us > 0.0 && d.work_p99_us >= d.work_p50_us && d.work_max_us >= d.work_p99_us
+    );
+    // Stall attribution: a subset of the overruns; a stall is at least STALL_US long.
+    assert!(d.overruns_after_stall <= d.overruns);
+    assert!(d.stalls.count == 0 || d.stalls.max_us >= sledid_host::pacing::STALL_US);
+    assert!(d.stalls.lost_us >= d.stalls.count as f64 * sledid_host::pacing::STALL_US);
+    // Every overrun after a stall needs a stall to begin its backlog.
+    assert!(d.overruns_after_stall == 0 || d.stalls.count > 0);
     // 400 samples at 50 µs cannot take less than 20 ms.
     assert!(sum.wall_s >= 400.0 * 50e-6 * 0.99, "wall {}", sum.wall_s);
     let _ = std::fs::remove_dir_all(dir);
