@@ -1,5 +1,5 @@
-//! The paper-like twin (`host-tests/plants/paper_sled.json`): its baseline behaves like the
-//! paper's (follows the reference, oscillates while settling for tens of samples, ends in the
+//! The default twin, the paper's loop (`host-tests/plants/paper_sled.json` writes it out): its
+//! baseline behaves like the paper's (follows the reference, oscillates while settling for tens of samples, ends in the
 //! ±1-quantum limit cycle), and the gain-scheduled controller, tuned on that plant only, meets
 //! issue 5's targets on it and on the perturbed plants (mass ±30 %, friction ±50 %, quantum ×0.5
 //! and ×2), 100 seeks each.
@@ -13,12 +13,9 @@ use sledid_host::twin::{PlantParams, TwinParams};
 /// Seeks per plant and controller (the issue's 100).
 const SEEKS: u32 = 100;
 
+/// The default twin (equal to `plants/paper_sled.json`: `tests/twin.rs`).
 fn paper_sled() -> TwinParams {
-    TwinParams::from_json_file(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/plants/paper_sled.json"
-    ))
-    .unwrap()
+    TwinParams::default()
 }
 
 /// The plants of the issue as `--perturb` factors.
