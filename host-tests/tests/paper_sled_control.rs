@@ -225,8 +225,9 @@ fn scheduled_meets_the_targets_on_the_paper_sled_and_its_perturbations() {
 
 /// The scheduled design comes from the plant file: the prior model and the Coulomb compensation
 /// of `scheduled_design_for` are the nominal plant's, whatever plant the loop runs on, and the
-/// fallback is the file's baseline PID. The paper-like file keeps the default sled (only the
-/// baseline differs), so its design equals `scheduled_design` apart from the fallback gains.
+/// fallback is the file's baseline PID. The default twin and `well_damped.json` share the default
+/// sled (only the baseline differs), so their designs equal `scheduled_design`'s apart from the
+/// fallback gains.
 #[test]
 fn the_scheduled_design_is_derived_from_the_nominal_plant_file() {
     let nominal = paper_sled();

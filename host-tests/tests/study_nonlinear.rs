@@ -154,8 +154,8 @@ fn well_damped_twin_nonlinear_models_fit_better_but_validate_worse_than_linear()
     let worse = |v: &[f64]| v.iter().filter(|c| **c > 0.01).count();
     let better = |v: &[f64]| v.iter().filter(|c| **c < -0.01).count();
     // Measured (40 cases per rate): Ts 18 better / 20 worse, median +15.7 %; ÷2 8 better /
-    // 25 worse, median +32.5 %; over-fitting evidence in 22 (Ts) and 29 (÷2) cases. Unlike the paper (9 %, 13 % better), the nonlinear models do NOT
-    // beat their linear starts on the twin: its windows are mostly the ±1-quantum limit cycle
+    // 25 worse, median +32.5 %; over-fitting evidence in 22 (Ts) and 29 (÷2) cases. Unlike the
+    // paper (9 %, 13 % better), the nonlinear models do NOT beat their linear starts: the windows are mostly the ±1-quantum limit cycle
     // (0–7 samples of decaying oscillation in 100), so there is little nonlinearity to learn and
     // the extra parameters fit one seek's quantisation pattern.
     assert!(median(ts.clone()) > 0.0 && median(dec.clone()) > 0.0);
@@ -166,15 +166,25 @@ fn well_damped_twin_nonlinear_models_fit_better_but_validate_worse_than_linear()
 }
 
 /// The default twin (the paper's loop), whose windows hold the decaying oscillation: the fits are
-/// checked as on the well-damped twin, the validation census is printed, not asserted (STUDY.md).
+/// checked as on the well-damped twin; on validation the nonlinear models still lose more often
+/// than they win (STUDY.md).
 #[test]
-fn default_twin_nonlinear_models_fit_better_on_identification() {
+fn default_twin_nonlinear_models_fit_better_but_mostly_validate_worse() {
     let studies: Vec<Study> = TWIN_SEEDS
         .iter()
         .map(|&s| twin_study(s, 0.0, false))
         .collect();
     check_fits(&studies);
-    census("paper's loop", &studies);
+    let [ts, dec] = census("paper's loop", &studies);
+    // Measured (40 cases per rate): Ts 11 better / 27 worse, median +32.1 %; ÷2 14 better / 22
+    // worse, median +8.3 %; over-fitting evidence in 28 and 24 cases. 5–8 parameters on 50–100
+    // samples of one seek over-fit even where the window holds the paper's decaying oscillation.
+    for (better, worse, median, _) in [ts, dec] {
+        assert!(
+            median > 0.0 && worse > better,
+            "{better} better, {worse} worse"
+        );
+    }
 }
 
 #[test]
