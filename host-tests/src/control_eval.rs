@@ -6,8 +6,9 @@
 //! The scheduled controller is tuned on a *nominal* plant ([`scheduled_design_for`]): the
 //! `--plant` file's (the default sled without one). `--perturb` ([`Perturbation`]) runs the loop on
 //! that plant with its mass, friction or quantum scaled, which the controller was not tuned on.
-//! `host-tests/plants/paper_sled.json` is the paper-like twin: the default sled with the paper's
-//! kind of badly tuned baseline, which oscillates while settling (see the README beside it).
+//! The default twin's baseline is the paper's kind of badly tuned loop, which oscillates while
+//! settling (`host-tests/plants/paper_sled.json` writes it out); `host-tests/plants/well_damped.json`
+//! is the same sled under the earlier, well-damped baseline (see the README beside them).
 //!
 //! # Measures (per seek; the error is `target − y` in quanta, as in `twin::analysis`)
 //! - settling time: from the seek's first sample until |e| ≤ 1 for the rest of the seek; a seek

@@ -46,7 +46,9 @@ enum Command {
         /// Seed of the seek schedule and the sensor noise.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Plant, reference and controller parameters (JSON; missing keys take the defaults).
+        /// Plant, reference and controller parameters (JSON; missing keys take the defaults: the
+        /// paper's badly tuned loop, `host-tests/plants/paper_sled.json`; the earlier well-damped
+        /// baseline is `host-tests/plants/well_damped.json`).
         #[arg(long)]
         plant: Option<PathBuf>,
         /// Number of seeks (overrides the file).
@@ -106,9 +108,9 @@ enum Command {
         /// Twin seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Twin parameters (JSON). Default: the paper-like sled carried in the binary
-        /// (`host-tests/plants/paper_sled.json`: the paper's kind of badly tuned baseline, which
-        /// oscillates while settling and ends in the ±1-quantum limit cycle).
+        /// Twin parameters (JSON). Default: the built-in twin, the paper's kind of badly tuned loop
+        /// (oscillates while settling, ends in the ±1-quantum limit cycle;
+        /// `host-tests/plants/paper_sled.json` writes it out).
         #[arg(long)]
         plant: Option<PathBuf>,
         /// Output directory.
@@ -350,15 +352,11 @@ fn demo_design() -> IdentifierDesign<4> {
     IdentifierDesign::new(Conditioning::DifferencedOutput, model)
 }
 
-/// The demo's twin: the paper-like sled, carried in the binary so `demo` runs from any folder.
-const PAPER_SLED_JSON: &str = include_str!("../plants/paper_sled.json");
-
 fn demo(seed: u64, plant: Option<&std::path::Path>, out: &PathBuf) -> Result<(), String> {
     let params = match plant {
-        Some(p) => TwinParams::from_json_file(p),
-        None => TwinParams::from_json_str(PAPER_SLED_JSON),
-    }
-    .map_err(|e| e.to_string())?;
+        Some(p) => TwinParams::from_json_file(p).map_err(|e| e.to_string())?,
+        None => TwinParams::default(),
+    };
     let twin = Twin::run_baseline(params.clone(), seed).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let csv_path = out.join("twin.csv");
@@ -504,8 +502,8 @@ struct StudyArgs {
     /// Samples per window with `--twin`.
     #[arg(long, default_value_t = 100)]
     twin_window: usize,
-    /// Twin parameters with `--twin` (JSON, e.g. `host-tests/plants/paper_sled.json`: the paper's
-    /// kind of badly tuned baseline); default: the built-in twin.
+    /// Twin parameters with `--twin` (JSON, e.g. `host-tests/plants/well_damped.json`); default:
+    /// the built-in twin, the paper's kind of badly tuned loop.
     #[arg(long, requires = "twin")]
     plant: Option<PathBuf>,
     /// Column mapping by name or 0-based index, e.g. `u=u_v,y=y_m,r=r_m,t=t_s`.

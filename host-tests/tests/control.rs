@@ -47,7 +47,7 @@ fn f64_baseline(params: &TwinParams) -> PidF64 {
 }
 
 /// Per-seek comparison of two runs' statistics (printed when `verbose`): (seeks, settling within
-/// one sample, both have limit-cycle sign changes).
+/// one sample, both hunting or both at rest).
 fn compare_stats(
     verbose: bool,
     name: &str,
@@ -64,7 +64,8 @@ fn compare_stats(
         if d_settle <= ts_s * 1.001 || (settle(sa).is_infinite() && settle(sb).is_infinite()) {
             within += 1;
         }
-        if sa.limit_cycle.sign_changes > 0 && sb.limit_cycle.sign_changes > 0 {
+        // Both hunting, or both at rest in the zero cell.
+        if (sa.limit_cycle.sign_changes > 0) == (sb.limit_cycle.sign_changes > 0) {
             cycling += 1;
         }
         if !verbose {
@@ -102,9 +103,16 @@ impl<C: SledController> SledController for OutputOnGrid<C> {
     }
 }
 
-#[test]
-fn fixed_point_baseline_reproduces_the_twin_closed_loop() {
-    let params = TwinParams::default();
+/// The fixed-point baseline in the twin's loop against the f64 one: (seeks, settling within one
+/// sample, same limit-cycle state, sign changes f64 / fixed). With `whole_first_seek` the
+/// fixed-point loop's y must equal the gridded f64 loop's through the first seek, otherwise equal
+/// the f64 or the gridded f64 loop's for the first `min_identical` samples.
+fn fixed_point_loop(
+    params: &TwinParams,
+    whole_first_seek: bool,
+    min_identical: usize,
+) -> (usize, usize, usize, usize, usize) {
+    let params = params.clone();
     let ts_s = params.plant.ts_s;
     let (mut seeks, mut within, mut cycling, mut within_grid) = (0, 0, 0, 0);
     let (mut changes_f64, mut changes_fixed) = (0usize, 0usize);
@@ -125,8 +133,9 @@ fn fixed_point_baseline_reproduces_the_twin_closed_loop() {
         cycling += c;
         within_grid += compare_stats(false, "f64 grid", ts_s, &a, &grid.seek_stats()).1;
         for s in &b {
-            assert_eq!(
-                s.limit_cycle.max_abs_error_counts, 1,
+            // ±1-quantum limit cycle, or at rest in the zero cell.
+            assert!(
+                s.limit_cycle.max_abs_error_counts <= 1,
                 "±1-quantum limit cycle"
             );
         }
@@ -152,26 +161,61 @@ fn fixed_point_baseline_reproduces_the_twin_closed_loop() {
             first_difference(&grid),
             fixed.samples().len()
         );
+        if whole_first_seek {
+            assert!(
+                vs_grid.is_none_or(|i| i >= first_seek_end),
+                "seed {seed}: the fixed-point loop leaves the gridded f64 loop at {vs_grid:?}"
+            );
+        }
+        let len = fixed.samples().len();
+        let identical = first_difference(&fixed)
+            .unwrap_or(len)
+            .max(vs_grid.unwrap_or(len));
         assert!(
-            vs_grid.is_none_or(|i| i >= first_seek_end),
-            "seed {seed}: the fixed-point loop leaves the gridded f64 loop at {vs_grid:?}"
+            identical >= min_identical,
+            "seed {seed}: the fixed-point loop leaves both f64 loops at {identical}"
         );
     }
     println!(
         "baseline f64 vs fixed point: {within}/{seeks} seeks settle within one sample period \
-         (f64 law with u on the I16F16 grid: {within_grid}/{seeks}), {cycling}/{seeks} limit-cycle \
-         in both, sign changes {changes_f64} / {changes_fixed}"
+         (f64 law with u on the I16F16 grid: {within_grid}/{seeks}), {cycling}/{seeks} in the same \
+         limit-cycle state, sign changes {changes_f64} / {changes_fixed}"
     );
-    assert!(
-        within * 6 >= seeks * 5,
-        "settling within one sample on {within}/{seeks}"
-    );
-    assert_eq!(cycling, seeks, "limit cycle in both on {cycling}/{seeks}");
-    let ratio = changes_fixed as f64 / changes_f64 as f64;
-    assert!(
-        (0.9..1.1).contains(&ratio),
-        "sign changes {changes_fixed} vs {changes_f64}"
-    );
+    (seeks, within, cycling, changes_f64, changes_fixed)
+}
+
+/// The fixed-point baseline reproduces the f64 loop: the same limit-cycle state on every seek, sign
+/// changes within 10 %. How closely the trajectories agree depends on the loop. The well-damped
+/// baseline rings down in a few samples: y is identical to the f64 law with its output on the
+/// I16F16 grid through the first seek, and the settling time within one sample on ≥ 5/6 of the
+/// seeks. The paper's loop (the default) swings ~10 quanta back and forth for ~90 samples, where
+/// one output LSB (of the fixed-point law, or of the grid against pure f64) eventually changes a
+/// swing: y is identical to the f64 or the gridded f64 loop's for the first 70–877 samples (seeds
+/// 1–4; ≥ 60 asserted: the whole acceleration of the first seek), and the last excursion beyond
+/// ±1 can end a whole swing (~12 ms) earlier or later: 12 of 24 settling times within one sample
+/// (≥ 1/3 asserted).
+#[test]
+fn fixed_point_baseline_reproduces_the_twin_closed_loop() {
+    for (params, whole_first_seek, min_identical, min_within) in [
+        (TwinParams::default(), false, 60, 1.0 / 3.0),
+        (TwinParams::well_damped(), true, 0, 5.0 / 6.0),
+    ] {
+        let (seeks, within, cycling, changes_f64, changes_fixed) =
+            fixed_point_loop(&params, whole_first_seek, min_identical);
+        assert!(
+            within as f64 >= min_within * seeks as f64,
+            "settling within one sample on {within}/{seeks}"
+        );
+        assert_eq!(
+            cycling, seeks,
+            "same limit-cycle state on {cycling}/{seeks}"
+        );
+        let ratio = changes_fixed as f64 / changes_f64 as f64;
+        assert!(
+            (0.9..1.1).contains(&ratio),
+            "sign changes {changes_fixed} vs {changes_f64}"
+        );
+    }
 }
 
 #[test]

@@ -1,5 +1,5 @@
-//! The paper-like twin (`host-tests/plants/paper_sled.json`): its baseline behaves like the
-//! paper's (follows the reference, oscillates while settling for tens of samples, ends in the
+//! The default twin, the paper's loop (`host-tests/plants/paper_sled.json` writes it out): its
+//! baseline behaves like the paper's (follows the reference, oscillates while settling for tens of samples, ends in the
 //! ±1-quantum limit cycle), and the gain-scheduled controller, tuned on that plant only, meets
 //! issue 5's targets on it and on the perturbed plants (mass ±30 %, friction ±50 %, quantum ×0.5
 //! and ×2), 100 seeks each.
@@ -13,12 +13,9 @@ use sledid_host::twin::{PlantParams, TwinParams};
 /// Seeks per plant and controller (the issue's 100).
 const SEEKS: u32 = 100;
 
+/// The default twin (equal to `plants/paper_sled.json`: `tests/twin.rs`).
 fn paper_sled() -> TwinParams {
-    TwinParams::from_json_file(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/plants/paper_sled.json"
-    ))
-    .unwrap()
+    TwinParams::default()
 }
 
 /// The plants of the issue as `--perturb` factors.
@@ -228,8 +225,9 @@ fn scheduled_meets_the_targets_on_the_paper_sled_and_its_perturbations() {
 
 /// The scheduled design comes from the plant file: the prior model and the Coulomb compensation
 /// of `scheduled_design_for` are the nominal plant's, whatever plant the loop runs on, and the
-/// fallback is the file's baseline PID. The paper-like file keeps the default sled (only the
-/// baseline differs), so its design equals `scheduled_design` apart from the fallback gains.
+/// fallback is the file's baseline PID. The default twin and `well_damped.json` share the default
+/// sled (only the baseline differs), so their designs equal `scheduled_design`'s apart from the
+/// fallback gains.
 #[test]
 fn the_scheduled_design_is_derived_from_the_nominal_plant_file() {
     let nominal = paper_sled();

@@ -37,18 +37,19 @@ fn row(name: &str, s: &ControlSummary) {
     println!("{}", s.table_row(name));
 }
 
-/// Issue 5's targets. Asserted in full: no unsettled seek and no limit-cycle pulse, on every
-/// plant. The settling target (median ≥ 30 % shorter than the baseline's) is asserted where the
+/// Issue 5's targets against the well-damped baseline (`host-tests/plants/well_damped.json`; against
+/// the default, the paper's loop, they are asserted in full in `tests/paper_sled_control.rs`).
+/// Asserted in full: no unsettled seek and no limit-cycle pulse, on every plant. The settling target (median ≥ 30 % shorter than the baseline's) is asserted where the
 /// reference allows it; where 0.7 × the baseline's median lies below the time the *reference
 /// itself* needs to come within one quantum of the target (`reference_bound_ms`), no controller
 /// that follows the reference can meet it, and the test asserts instead that the scheduled
 /// median is within 5 ms of that bound and not worse than the baseline's by more than 1 ms.
 #[test]
-fn scheduled_controller_meets_the_targets_on_tuned_and_untuned_plants() {
+fn scheduled_controller_meets_the_targets_against_the_well_damped_baseline() {
     println!("{}", ControlSummary::TABLE_HEADER);
     let mut failures = Vec::new();
     for (name, mass, friction, quantum) in PLANTS {
-        let params = perturbed(&TwinParams::default(), mass, friction, quantum);
+        let params = perturbed(&TwinParams::well_damped(), mass, friction, quantum);
         let base = run(&params, 1, SEEKS, ControllerKind::Baseline)
             .unwrap()
             .summary;

@@ -13,7 +13,7 @@ use sledid_host::study::{
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-/// Seeds of the twin runs (default parameters, 6 seeks each).
+/// Seeds of the twin runs (default parameters: the paper's loop, 6 seeks each).
 const TWIN_SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
 
 /// A fresh scratch directory for one test.
@@ -152,11 +152,13 @@ fn twin_paper_protocol_arx1_simulates_worse_than_oe1() {
     }
     let count = holds.iter().filter(|(_, h)| *h).count();
     println!("ARX1 sim RMS > OE1 sim RMS (validation, Ts) per seed: {holds:?}");
-    // The paper's and findings' ordering; on the twin it fails where ARX1 happens to be stable and
-    // both models simulate no better than the output's own RMS (seed 1): see the report.
-    // Measured: holds on 7 of these 8 seeds. The threshold (≥ 6 of 8) was chosen AFTER seeing that
-    // result, to tolerate one more exception; it is a regression guard, not evidence for the paper.
-    assert!(count * 4 >= TWIN_SEEDS.len() * 3, "{holds:?}");
+    // The paper's and findings' ordering. Measured on the default twin (the paper's loop, whose
+    // windows hold the decaying oscillation): holds on all 8 seeds, ARX1's simulation diverging on
+    // 7 (`tests/study_paper_twin.rs` asserts it with a factor of 2). On the well-damped baseline
+    // (`plants/well_damped.json`, the default before) it held on 7 of 8 — it failed where ARX1
+    // happened to be stable and both models simulated no better than the output's own RMS — and
+    // this test asserted ≥ 6 of 8.
+    assert_eq!(count, TWIN_SEEDS.len(), "{holds:?}");
 }
 
 #[test]

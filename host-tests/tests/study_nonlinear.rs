@@ -6,11 +6,12 @@
 //! measured values and were set after measuring, as regression guards: they can fail.
 
 use sledid_host::study::nonlinear::NonlinearReport;
-use sledid_host::study::protocol::{PAPER_WINDOW, run_twin};
+use sledid_host::study::protocol::{PAPER_WINDOW, run_twin_with};
 use sledid_host::study::{Centring, Segment, Study, StudyInput, StudyOptions, run_files};
+use sledid_host::twin::TwinParams;
 use std::path::PathBuf;
 
-/// Seeds of the twin runs (default parameters), as in `tests/study.rs`.
+/// Seeds of the twin runs, as in `tests/study.rs`.
 const TWIN_SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
 
 fn scratch_dir(name: &str) -> PathBuf {
@@ -19,13 +20,20 @@ fn scratch_dir(name: &str) -> PathBuf {
     dir
 }
 
-fn twin_study(seed: u64, ridge: f64) -> Study {
-    let dir = scratch_dir(&format!("twin-{seed}-{ridge}"));
+/// The twin study of `seed` on the default twin (the paper's loop) or, with `well_damped`, under
+/// the well-damped baseline (`host-tests/plants/well_damped.json`).
+fn twin_study(seed: u64, ridge: f64, well_damped: bool) -> Study {
+    let dir = scratch_dir(&format!("twin-{seed}-{ridge}-{well_damped}"));
     let options = StudyOptions {
         nonlinear_ridge: ridge,
         ..StudyOptions::default()
     };
-    run_twin(seed, PAPER_WINDOW, &dir, options).unwrap()
+    let params = if well_damped {
+        TwinParams::well_damped()
+    } else {
+        TwinParams::default()
+    };
+    run_twin_with(params, seed, PAPER_WINDOW, &dir, options).unwrap()
 }
 
 /// Every nonlinear model of `study` at both rates, with the rate's label.
@@ -61,10 +69,10 @@ fn changes(studies: &[Study]) -> [Vec<f64>; 2] {
     [pick(false), pick(true)]
 }
 
-#[test]
-fn twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
-    let studies: Vec<Study> = TWIN_SEEDS.iter().map(|&s| twin_study(s, 0.0)).collect();
-    for (seed, study) in TWIN_SEEDS.iter().zip(&studies) {
+/// LM from the OE model fits the identification window at least as well as the OE model, on both
+/// twins; the parameter-count flags; the validation census of both (printed).
+fn check_fits(studies: &[Study]) {
+    for (seed, study) in TWIN_SEEDS.iter().zip(studies) {
         println!("twin seed {seed}, ridge 0\n{}", study.table());
         for (rate, m) in all(study) {
             assert_eq!(m.n_params, m.theta.len());
@@ -91,7 +99,11 @@ fn twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
         }
         assert!(study.at_ts.nonlinear.iter().all(|m| !m.overfit_risk));
     }
-    let [ts, dec] = changes(&studies);
+}
+
+/// (better, worse, median change, over-fitting evidence) per rate [Ts, ÷2], printed.
+fn census(name: &str, studies: &[Study]) -> [(usize, usize, f64, usize); 2] {
+    let [ts, dec] = changes(studies);
     let worse = |v: &[f64]| v.iter().filter(|c| **c > 0.01).count();
     let better = |v: &[f64]| v.iter().filter(|c| **c < -0.01).count();
     let evidence: Vec<usize> = [false, true]
@@ -108,7 +120,7 @@ fn twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
         })
         .to_vec();
     println!(
-        "validation change vs linear start, {} cases per rate: Ts: {} better (< −1 %), {} worse \
+        "{name}: validation change vs linear start, {} cases per rate: Ts: {} better (< −1 %), {} worse \
          (> +1 %), median {:+.1} %; ÷2: {} better, {} worse, median {:+.1} %; over-fitting \
          evidence (ident better, valid worse) Ts {}, ÷2 {}",
         ts.len(),
@@ -121,9 +133,29 @@ fn twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
         evidence[0],
         evidence[1]
     );
+    [
+        (better(&ts), worse(&ts), median(ts.clone()), evidence[0]),
+        (better(&dec), worse(&dec), median(dec.clone()), evidence[1]),
+    ]
+}
+
+/// The well-damped baseline (`host-tests/plants/well_damped.json`), whose windows are mostly the
+/// ±1-quantum limit cycle: the nonlinear models fit better but validate worse.
+#[test]
+fn well_damped_twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
+    let studies: Vec<Study> = TWIN_SEEDS
+        .iter()
+        .map(|&s| twin_study(s, 0.0, true))
+        .collect();
+    check_fits(&studies);
+    let [ts, dec] = changes(&studies);
+    let [(_, _, _, evidence_ts), (_, _, _, evidence_dec)] = census("well damped", &studies);
+    let evidence = [evidence_ts, evidence_dec];
+    let worse = |v: &[f64]| v.iter().filter(|c| **c > 0.01).count();
+    let better = |v: &[f64]| v.iter().filter(|c| **c < -0.01).count();
     // Measured (40 cases per rate): Ts 18 better / 20 worse, median +15.7 %; ÷2 8 better /
-    // 25 worse, median +32.5 %; over-fitting evidence in 22 (Ts) and 29 (÷2) cases. Unlike the paper (9 %, 13 % better), the nonlinear models do NOT
-    // beat their linear starts on the twin: its windows are mostly the ±1-quantum limit cycle
+    // 25 worse, median +32.5 %; over-fitting evidence in 22 (Ts) and 29 (÷2) cases. Unlike the
+    // paper (9 %, 13 % better), the nonlinear models do NOT beat their linear starts: the windows are mostly the ±1-quantum limit cycle
     // (0–7 samples of decaying oscillation in 100), so there is little nonlinearity to learn and
     // the extra parameters fit one seek's quantisation pattern.
     assert!(median(ts.clone()) > 0.0 && median(dec.clone()) > 0.0);
@@ -133,10 +165,38 @@ fn twin_nonlinear_models_fit_better_but_validate_worse_than_linear() {
     assert!(2 * evidence[0] >= ts.len() && 2 * evidence[1] >= dec.len() + dec.len() / 4);
 }
 
+/// The default twin (the paper's loop), whose windows hold the decaying oscillation: the fits are
+/// checked as on the well-damped twin; on validation the nonlinear models still lose more often
+/// than they win (STUDY.md).
+#[test]
+fn default_twin_nonlinear_models_fit_better_but_mostly_validate_worse() {
+    let studies: Vec<Study> = TWIN_SEEDS
+        .iter()
+        .map(|&s| twin_study(s, 0.0, false))
+        .collect();
+    check_fits(&studies);
+    let [ts, dec] = census("paper's loop", &studies);
+    // Measured (40 cases per rate): Ts 11 better / 27 worse, median +32.1 %; ÷2 14 better / 22
+    // worse, median +8.3 %; over-fitting evidence in 28 and 24 cases. 5–8 parameters on 50–100
+    // samples of one seek over-fit even where the window holds the paper's decaying oscillation.
+    for (better, worse, median, _) in [ts, dec] {
+        assert!(
+            median > 0.0 && worse > better,
+            "{better} better, {worse} worse"
+        );
+    }
+}
+
 #[test]
 fn twin_ridge_keeps_nonlinear_models_near_their_linear_start() {
-    let plain: Vec<Study> = TWIN_SEEDS.iter().map(|&s| twin_study(s, 0.0)).collect();
-    let ridged: Vec<Study> = TWIN_SEEDS.iter().map(|&s| twin_study(s, 1.0)).collect();
+    let plain: Vec<Study> = TWIN_SEEDS
+        .iter()
+        .map(|&s| twin_study(s, 0.0, false))
+        .collect();
+    let ridged: Vec<Study> = TWIN_SEEDS
+        .iter()
+        .map(|&s| twin_study(s, 1.0, false))
+        .collect();
     let abs_median = |v: &[f64]| median(v.iter().map(|c| c.abs()).collect());
     let [p_ts, p_dec] = changes(&plain);
     let [r_ts, r_dec] = changes(&ridged);
@@ -165,8 +225,8 @@ fn twin_ridge_keeps_nonlinear_models_near_their_linear_start() {
 
 #[test]
 fn twin_study_is_deterministic() {
-    let a = twin_study(4, 0.0);
-    let b = twin_study(4, 0.0);
+    let a = twin_study(4, 0.0, false);
+    let b = twin_study(4, 0.0, false);
     let key = |s: &Study| -> Vec<(String, f64, f64)> {
         all(s)
             .iter()

@@ -1,5 +1,7 @@
 //! Tests of the sled twin: determinism, the stick/slip plant, quantization, saturation, the
-//! baseline closed loop (settling and the ±1-quantum limit cycle), parameters and recordings.
+//! baseline closed loop (settling and the ±1-quantum limit cycle; the default is the paper's badly
+//! tuned loop, `host-tests/plants/paper_sled.json`, and the earlier well-damped one is
+//! `host-tests/plants/well_damped.json`), parameters and recordings.
 
 use proptest::prelude::*;
 use sledid_host::twin::{
@@ -290,6 +292,7 @@ fn sign_changes(errors: &[i64]) -> usize {
 #[test]
 fn closed_loop_reaches_every_target_and_ends_in_a_one_quantum_limit_cycle() {
     let params = TwinParams::default();
+    let mut at_rest = 0;
     for seed in CLOSED_LOOP_SEEDS {
         let twin = baseline(seed);
         assert!(twin.is_finished());
@@ -308,9 +311,16 @@ fn closed_loop_reaches_every_target_and_ends_in_a_one_quantum_limit_cycle() {
                 "{context}: late error outside ±1: {:?}",
                 errors.iter().filter(|e| e.abs() > 1).collect::<Vec<_>>()
             );
-            // 150 ms of dwell: the cycle of ~5.5 ms changes sign ~55 times.
+            // The loop's other equilibrium: at rest in the zero cell with the integral below
+            // breakaway (measured: 1 of these 24 seeks, 70 of 1,200 in `limit_cycle_over_many_seeds`).
+            if errors.iter().all(|&e| e == 0) {
+                at_rest += 1;
+                continue;
+            }
+            // 150 ms of dwell: the cycle of ~35 ms changes sign 8–9 times (measured on all 23
+            // hunting seeks; with the well-damped baseline's ~5.5 ms cycle it was > 30).
             let changes = sign_changes(&errors);
-            assert!(changes > 30, "{context}: only {changes} sign changes");
+            assert!(changes >= 7, "{context}: only {changes} sign changes");
             let plus = errors.iter().filter(|&&e| e == 1).count();
             let minus = errors.iter().filter(|&&e| e == -1).count();
             assert!(
@@ -319,11 +329,14 @@ fn closed_loop_reaches_every_target_and_ends_in_a_one_quantum_limit_cycle() {
             );
         }
     }
+    assert!(at_rest <= 2, "{at_rest} seeks at rest");
 }
 
 #[test]
 fn closed_loop_rings_down_before_the_limit_cycle() {
-    // Long seeks overshoot by a few quanta and ring down: decaying oscillations, as in the paper.
+    // Long seeks overshoot by ~10 quanta and swing back and forth: decaying oscillations, as in
+    // the paper (measured 9–12 quanta on the 12 seeks of ≥ 500 tracks; the well-damped baseline
+    // overshot by 1–15).
     let mut overshoots = Vec::new();
     for seed in CLOSED_LOOP_SEEDS {
         for stats in baseline(seed).seek_stats() {
@@ -334,7 +347,7 @@ fn closed_loop_rings_down_before_the_limit_cycle() {
     }
     assert!(overshoots.len() >= 5);
     assert!(
-        overshoots.iter().all(|&o| (1..=15).contains(&o)),
+        overshoots.iter().all(|&o| (5..=15).contains(&o)),
         "{overshoots:?}"
     );
     assert!(
@@ -616,29 +629,61 @@ fn print_closed_loop_statistics() {
                 ms(cycle.mean_pulse_s),
             );
             assert!(stats.settling_time_s.is_some());
-            assert_eq!(cycle.max_abs_error_counts, 1);
+            // 1, or 0 for the one seek at rest (see above).
+            assert!(cycle.max_abs_error_counts <= 1);
         }
     }
 }
 
-/// Freezes (the sled resting in the zero cell) and wider cycles over many random seeks (1,200
-/// seeks; fast with the optimised test profile).
-#[test]
-fn limit_cycle_over_many_seeds() {
+/// Seeks at rest in the zero cell and wider cycles over many random seeks (1,200 seeks; fast with
+/// the optimised test profile).
+fn limit_cycle_census(params: &TwinParams, at_rest_below_changes: usize) -> (usize, usize, usize) {
     let mut frozen = 0;
     let mut wide = 0;
     let mut seeks = 0;
     for seed in 0..200 {
-        for stats in baseline(seed).seek_stats() {
+        for stats in Twin::run_baseline(params.clone(), seed)
+            .unwrap()
+            .seek_stats()
+        {
             seeks += 1;
             if stats.limit_cycle.max_abs_error_counts > 1 {
                 wide += 1;
             }
-            if stats.limit_cycle.sign_changes < 10 {
+            if stats.limit_cycle.sign_changes < at_rest_below_changes {
                 frozen += 1;
             }
         }
     }
-    println!("{seeks} seeks: {frozen} frozen, {wide} with |e| > 1 late in the dwell");
+    (seeks, frozen, wide)
+}
+
+/// The paper's loop ends in ±1 on every seek but rests in the zero cell more often than the
+/// well-damped one: its integrator crawls (3.6 mV per sample at one track), so a swing that ends
+/// with the integral below breakaway stays there. Measured: 70 of 1,200 at rest, none wider; the
+/// bound leaves room for ~40 % more. The well-damped baseline keeps its earlier bound (≤ 1 %,
+/// measured 1 of 1,200), counting < 10 sign changes in its 150 ms as frozen (its cycle changes
+/// sign ~55 times there; the paper's ~35 ms cycle only 8–9 times, so there < 2 counts).
+#[test]
+fn limit_cycle_over_many_seeds() {
+    let (seeks, frozen, wide) = limit_cycle_census(&TwinParams::default(), 2);
+    println!(
+        "paper's loop: {seeks} seeks: {frozen} at rest, {wide} with |e| > 1 late in the dwell"
+    );
+    assert_eq!(wide, 0);
+    assert!(frozen <= seeks / 12, "{frozen} of {seeks} at rest");
+    let (seeks, frozen, wide) = limit_cycle_census(&TwinParams::well_damped(), 10);
+    println!("well damped: {seeks} seeks: {frozen} frozen, {wide} with |e| > 1 late in the dwell");
     assert!(frozen + wide <= seeks / 100);
+}
+
+/// The committed plant files are the defaults and the well-damped variant, key for key.
+#[test]
+fn plant_files_are_the_documented_parameter_sets() {
+    let file = |name: &str| {
+        TwinParams::from_json_file(format!("{}/plants/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    };
+    assert_eq!(file("paper_sled.json"), TwinParams::default());
+    assert_eq!(file("well_damped.json"), TwinParams::well_damped());
+    assert_ne!(TwinParams::default(), TwinParams::well_damped());
 }

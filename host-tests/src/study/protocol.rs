@@ -101,7 +101,7 @@ pub fn twin_input(
     twin_input_with(TwinParams::default(), seed, window, dir, options)
 }
 
-/// [`twin_input`] for a twin of any parameters (e.g. `host-tests/plants/paper_sled.json`).
+/// [`twin_input`] for a twin of any parameters (e.g. `host-tests/plants/well_damped.json`).
 pub fn twin_input_with(
     params: TwinParams,
     seed: u64,

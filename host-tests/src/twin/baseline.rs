@@ -10,24 +10,29 @@
 //! ```
 //!
 //! # Why it ends in a ±1-quantum limit cycle
-//! With the defaults ([`PidParams::default`]) the P and D terms make a loop of about 90 Hz that
-//! tracks the seek and overshoots by a few tracks. The integrator is the badly tuned part: it
-//! moves 91 mV per sample at one track of error and is clamped at ±70 mV, just above the
-//! breakaway voltage (62.5 mV) of the default sled. Once the reference is constant the error is
-//! an integer and:
-//! * at `e = ±1` the integrator swings to its clamp within one or two samples and drives the
-//!   sled towards the target;
-//! * in the zero-error cell the integrator holds that value, which exceeds the Coulomb voltage
-//!   (37.5 mV), so the sled does not stop there but coasts on into the opposite `∓1` cell;
-//! * there the integrator reverses and the sled is driven back.
+//! Once the reference is constant the error is an integer, and the integrator is the badly tuned
+//! part: whatever it holds in the zero-error cell is either below breakaway (the sled rests there)
+//! or not (it coasts on into the opposite cell, where the integrator reverses). The limit cycle is
+//! the integrator building up to breakaway at `e = ±1`, a pulse that carries the sled across the
+//! target, and the same from the other side. As the paper concludes, the oscillation is
+//! controller induced.
 //!
-//! The sled swings about ±1.2 tracks, the measurement hunts `…, 0, −1, −1, −1, 0, +1, +1, +1, 0, …`
-//! with a period of about 12 samples, and the drive is a train of ±(50…90) mV pulses, a step
-//! (P) and a spike (D) at every track crossing. As the paper concludes, the oscillation is
-//! controller induced. The one way out is the PID's other equilibrium: the sled at rest in the
-//! zero cell with `|I|` below breakaway, reachable only if the integrator was wound against the
-//! motion at the end of a seek (measured: 0 of 1,800 random seeks without noise, 1 of 1,800 with
-//! the default noise).
+//! With the defaults ([`PidParams::default`], the paper's loop) the integrator gains 3.6 mV per
+//! sample at one track of error and is clamped at ±0.3 V: through a seek it winds up, the sled
+//! overshoots by ~10 tracks and swings back and forth for ~90 samples (the paper's settling
+//! oscillation), then hunts `…, +1, …, +1, 0, −1, …, −1, 0, +1, …` with a period of about 77
+//! samples (35 ms), one pulse above breakaway per half period. The way out, the sled at rest in
+//! the zero cell with `|I|` below breakaway, is reached in 70 of 1,200 random seeks (seeds 0–199,
+//! default noise; `tests/twin.rs`).
+//!
+//! With [`PidParams::well_damped`] (the earlier default) the P and D terms make a loop of about
+//! 90 Hz that rings down within a few samples, and the integrator moves 91 mV per sample at one
+//! track and is clamped at ±70 mV, just above the breakaway voltage (62.5 mV): at `e = ±1` it
+//! swings to its clamp within one or two samples, and in the zero cell it holds a value above the
+//! Coulomb voltage (37.5 mV), so the sled coasts on. The measurement hunts
+//! `…, 0, −1, −1, −1, 0, +1, +1, +1, 0, …` with a period of about 12 samples, the drive a train of
+//! ±(50…90) mV pulses; it rests in the zero cell in 0 of 1,800 random seeks without noise, 1 of
+//! 1,800 with the default noise.
 
 use super::params::PidParams;
 
