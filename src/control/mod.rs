@@ -326,6 +326,20 @@ pub fn mul_i64_u1f31(x: i64, c: u32) -> i64 {
     floor + ((lo_part >> 30) & 1) as i64 // round half up: stays within [floor, ceil]
 }
 
+/// `x` limited to `[−limit, limit]`: `x.clamp(−limit, limit)` for every `limit ≥ 0` (the limits
+/// are built non-negative), without `clamp`'s panic for an empty range (a negative `limit` gives
+/// `limit`). Never panics, links no formatting code. `limit` must not be `i64::MIN`.
+#[inline(always)]
+pub(crate) fn clamp_sym_i64(x: i64, limit: i64) -> i64 {
+    x.max(limit.wrapping_neg()).min(limit)
+}
+
+/// [`clamp_sym_i64`] for `i32`.
+#[inline(always)]
+pub(crate) fn clamp_sym_i32(x: i32, limit: i32) -> i32 {
+    x.max(limit.wrapping_neg()).min(limit)
+}
+
 /// `round(x · 2³²)` for `0 ≤ x < 2¹⁵` (an I32F32 limit), at most `i32::MAX · 2¹⁶` so that it
 /// rounds into I16F16; `None` otherwise, NaN included.
 #[allow(clippy::float_arithmetic)] // design time, not the per-sample path

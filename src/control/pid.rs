@@ -10,7 +10,9 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use super::{ConfigError, ControlFlags, ControlOutput, Gain, ONE_U1F31, mul_i64_u1f31};
+use super::{
+    ConfigError, ControlFlags, ControlOutput, Gain, ONE_U1F31, clamp_sym_i64, mul_i64_u1f31,
+};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{SignalI16F16, sat_i32, shr_round_i64};
 use crate::wide::mul_i32_u32_wide;
@@ -345,7 +347,7 @@ impl PidConfig {
         let total = if state.enabled {
             let previous = state.integral_i32f32;
             let wanted = previous.saturating_add(self.ki_ts.apply(e));
-            let candidate = wanted.clamp(-i_max, i_max);
+            let candidate = clamp_sym_i64(wanted, i_max);
             flags.set_if(ControlFlags::INTEGRATOR_LIMITED, candidate != wanted);
             let unsaturated = pd.saturating_add(candidate);
             let winding = (unsaturated > u_max && candidate > previous)
@@ -360,14 +362,14 @@ impl PidConfig {
             flags.insert(ControlFlags::MANUAL);
             let manual = i64::from(state.manual_u.raw()) << 16; // I16F16 → I32F32, < 2^47
             let wanted = manual.saturating_sub(pd);
-            state.integral_i32f32 = wanted.clamp(-i_max, i_max);
+            state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
                 ControlFlags::TRACKING_LIMITED,
                 state.integral_i32f32 != wanted,
             );
             manual
         };
-        let clamped = total.clamp(-u_max, u_max);
+        let clamped = clamp_sym_i64(total, u_max);
         flags.set_if(ControlFlags::OUTPUT_SATURATED, clamped != total);
         // |clamped| ≤ u_max < 2^47: the narrowing cannot saturate.
         let u = SignalI16F16::from_raw(sat_i32(shr_round_i64(clamped, 16), &mut sat));

@@ -55,7 +55,7 @@ use super::design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, Ve
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::schedule::{Region, RegionDesign, RegionSelector};
 pub use super::supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
-use super::{ConfigError, ControlFlags, i32f32_from_f64};
+use super::{ConfigError, ControlFlags, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::status::Status;
@@ -455,7 +455,7 @@ impl ScheduledConfig {
         };
         if returning || (changed && previous != Region::Hold) {
             let wanted = state.last_v_i32f32.saturating_sub(terms);
-            state.integral_i32f32 = wanted.clamp(-i_max, i_max);
+            state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
                 ScheduledFlags::TRANSFER_LIMITED,
                 state.integral_i32f32 != wanted,
@@ -463,7 +463,7 @@ impl ScheduledConfig {
         } else if integrating {
             let prev = state.integral_i32f32;
             let wanted = prev.saturating_add(g.ki_settle.apply(self.settle_error(e)));
-            let candidate = wanted.clamp(-i_max, i_max);
+            let candidate = clamp_sym_i64(wanted, i_max);
             flags.set_if(ScheduledFlags::INTEGRATOR_LIMITED, candidate != wanted);
             let v = terms.saturating_add(candidate);
             let u_max = self.u_limit_i32f32;
@@ -484,7 +484,7 @@ impl ScheduledConfig {
             None => v_i16f16,
         };
         let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
-        let u = u_raw.clamp(-u_max, u_max);
+        let u = clamp_sym_i32(u_raw, u_max);
         flags.set_if(ScheduledFlags::OUTPUT_SATURATED, u != u_raw);
         flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
         state.last_v_i32f32 = v;
