@@ -30,6 +30,7 @@ use crate::linear::{Estimate, LinearDesign, Structure};
 use crate::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
 use crate::rls::{AntiWindup, RlsDesign};
 use crate::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity).
 pub const VELOCITY_N: usize = 2;
@@ -69,7 +70,7 @@ pub fn velocity_identifier(
 }
 
 /// Validated configuration of the loop.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LoopConfig {
     controller: ScheduledConfig,
     velocity: IdentifierConfig<VELOCITY_N>,
@@ -119,9 +120,59 @@ impl LoopDesign {
             decimator: DecimatorConfig::HALF_BAND_23,
         })
     }
+
+    /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
+    /// controller's ([`ScheduledConfig`]), the velocity identifier's
+    /// ([`IdentifierDesign::put_words`]), then the Wiener model's if any (a `bool`, then
+    /// [`NonlinearDesign::put_words`]). [`LoopConfig::from_words`] reads them back into the
+    /// configuration [`Self::build`] gives. Returns the number of words written.
+    ///
+    /// # Errors
+    /// The first part's [`ConfigError`], or [`ConfigError::Words`] when `out` is too short
+    /// ([`LOOP_WORDS_MAX`] always suffices).
+    pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
+        let mut w = WordWriter::new(out);
+        self.controller.build()?.put(&mut w)?;
+        self.velocity.put_words(&mut w)?;
+        self.wiener.is_some().put(&mut w)?;
+        if let Some(wiener) = &self.wiener {
+            wiener.put_words(&mut w)?;
+        }
+        Ok(w.len())
+    }
 }
 
+/// A buffer size that holds the words of any [`LoopDesign`]: at most 181 (134 for the controller
+/// with both input maps, 25 for the velocity identifier with a stuck-sensor check and a pole
+/// radius, 22 for the Wiener model).
+pub const LOOP_WORDS_MAX: usize = 192;
+
 impl LoopConfig {
+    /// The configuration from the words of [`LoopDesign::to_words`], computed on the host: every
+    /// field checked as the parts' `build` functions check them (integer checks; only the two RLS
+    /// designs are built from their `f64` settings, see [`crate::words`]). The decimator is the
+    /// loop's fixed half-band filter.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] at the first word that is missing, invalid or fails its check (or
+    /// the first word left over), or an RLS design's error.
+    pub fn from_words(words: &[u32]) -> Result<Self, ConfigError> {
+        let mut r = WordReader::new(words);
+        let controller = ScheduledConfig::take(&mut r);
+        let velocity = IdentifierConfig::take_words(&mut r)?;
+        let wiener = match bool::take(&mut r) {
+            true => Some(NonlinearConfig::take_words(&mut r)?),
+            false => None,
+        };
+        r.finish()?;
+        Ok(Self {
+            controller,
+            velocity,
+            wiener,
+            decimator: DecimatorConfig::HALF_BAND_23,
+        })
+    }
+
     /// A fresh state.
     pub fn new_state(&self) -> LoopState {
         LoopState {

@@ -299,7 +299,7 @@ mod target {
         slot: &'static mut Option<Ticker>,
         producer: Producer<'static, Telemetry>,
     ) -> Option<&'static mut Ticker> {
-        let config = fw_config::design().build().ok()?;
+        let config = fw_config::config().ok()?;
         Some(slot.insert(Ticker {
             run: Run::from_config(config),
             next: 0,
@@ -455,7 +455,8 @@ mod target {
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
-            critical_section::with(|cs| BENCH.borrow(cs).replace(Run::new().ok()));
+            let run = fw_config::config().ok().map(Run::from_config);
+            critical_section::with(|cs| BENCH.borrow(cs).replace(run));
         }
 
         /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
@@ -538,6 +539,19 @@ mod target {
 fn main() {
     use fw_config::{FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, U_FULL_SCALE_V};
     println!("sledid-fw (host build): {:#?}", fw_config::design());
+    // What the firmware decodes instead of building the design from f64.
+    let words = fw_config::LOOP_WORDS.len();
+    if fw_config::config() == fw_config::design().build() {
+        println!(
+            "configuration words (src/bin/firmware/loop_words.rs): {words}, equal to the design"
+        );
+    } else {
+        eprintln!(
+            "sledid-fw: the configuration words ({words}) are stale: regenerate them \
+             (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words)"
+        );
+        std::process::exit(1);
+    }
     println!(
         "recording: {FIXTURE_SAMPLES} EMPS samples, quantum {QUANTUM_M} m, u full scale {U_FULL_SCALE_V} V; \
          SysTick period {SAMPLE_PERIOD_NS} ns"

@@ -55,10 +55,13 @@ use super::design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, Ve
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::schedule::{Region, RegionDesign, RegionSelector};
 pub use super::supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
-use super::{ConfigError, ControlFlags, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
+use super::{
+    ConfigError, ControlFlags, LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64,
+};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::status::Status;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -506,5 +509,58 @@ impl ScheduledConfig {
     /// h(u) of the compensation map (the identity without one), I16F16 raw.
     fn forward(&self, u: i32) -> i32 {
         self.compensation.as_ref().map_or(u, |m| m.forward(u))
+    }
+}
+
+/// Words: the baseline PID, the region selector, placement, supervisor, gains in use, fallback,
+/// I_max, hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's).
+/// Checked as [`ScheduledDesign::build`] makes them: `0 ≤ I_max ≤ 2³¹·2¹⁶`, |hold bias| ≤ u_max,
+/// `ε limit < 2³¹`, na ∈ {1, 2}, and every part's own checks.
+impl Words for ScheduledConfig {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.baseline.put(w)?;
+        self.selector.put(w)?;
+        self.placement.put(w)?;
+        self.supervisor.put(w)?;
+        self.gains.put(w)?;
+        self.fallback.put(w)?;
+        self.integrator_limit_i32f32.put(w)?;
+        self.hold_bias.put(w)?;
+        self.eps_limit.put(w)?;
+        self.na.put(w)?;
+        self.compensation.put(w)?;
+        self.output_map.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let baseline = PidConfig::take(r);
+        let selector = RegionSelector::take(r);
+        let placement = PlacementDesign::take(r);
+        let supervisor = SupervisorDesign::take(r);
+        let gains = ModelGains::take(r);
+        let fallback = bool::take(r);
+        let integrator_limit_i32f32 = i64::take(r);
+        r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
+        let u_max = baseline.u_limit().raw();
+        let hold_bias = i32::take(r);
+        r.check(hold_bias.unsigned_abs() <= u_max.unsigned_abs());
+        let eps_limit = u32::take(r);
+        r.check(eps_limit <= i32::MAX as u32);
+        let na = usize::take(r);
+        r.check((1..=2).contains(&na));
+        Self {
+            baseline,
+            selector,
+            placement,
+            supervisor,
+            gains,
+            fallback,
+            integrator_limit_i32f32,
+            u_limit_i32f32: i64::from(u_max) << 16,
+            hold_bias,
+            eps_limit,
+            na,
+            compensation: <Option<InverseInputMap> as Words>::take(r),
+            output_map: <Option<InverseInputMap> as Words>::take(r),
+        }
     }
 }

@@ -74,6 +74,8 @@ use sledid::error::ConfigError;
 use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
+
+include!("loop_words.rs");
 use sledid::{PositionI48F16, Sample, SignalI16F16};
 
 /// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
@@ -180,6 +182,15 @@ pub fn design() -> LoopDesign {
         velocity,
         wiener: Some(wiener),
     }
+}
+
+/// The configuration the firmware runs: [`LOOP_WORDS`] (generated on the host from [`design`])
+/// decoded and checked by [`LoopConfig::from_words`], without the `f64` build of [`design`].
+///
+/// # Errors
+/// The words' [`ConfigError`] (none for the committed words; the tests decode them).
+pub fn config() -> Result<LoopConfig, ConfigError> {
+    LoopConfig::from_words(&LOOP_WORDS)
 }
 
 /// Fraction bits of a [`PositionI48F16`] (y is stored in whole quanta).
@@ -328,10 +339,12 @@ pub struct Run {
 }
 
 impl Run {
-    /// A fresh run of [`design`].
+    /// A fresh run of [`design`], built from `f64` (the host's replay: the firmware decodes
+    /// [`config`] instead, so the QEMU test also checks that the words give the design).
     ///
     /// # Errors
     /// The design's [`ConfigError`] (none for the committed design; the tests build it).
+    #[allow(dead_code)] // the firmware starts from `config()`
     pub fn new() -> Result<Self, ConfigError> {
         Ok(Self::from_config(design().build()?))
     }
