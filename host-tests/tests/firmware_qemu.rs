@@ -37,8 +37,7 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use fw_config::{
-    FIXTURE_SAMPLES, QUANTUM_M, RECORD_BYTES, RESULT_PREFIX, SAMPLE_PERIOD_NS, Summary,
-    U_FULL_SCALE_V,
+    FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, Summary, U_FULL_SCALE_V,
 };
 use sledid::error::ConfigError;
 use sledid::sled_loop::{LOOP_WORDS_MAX, LoopConfig};
@@ -92,14 +91,11 @@ fn emps_excerpt() -> Vec<Sample> {
         .collect()
 }
 
-/// The fixture layout (`fw_config::encode`, record by record).
+/// The fixture layout (`fw_config::recording::encode`).
 fn encode(samples: &[Sample]) -> Vec<u8> {
-    let mut bytes = Vec::with_capacity(samples.len() * RECORD_BYTES);
-    for (i, s) in samples.iter().enumerate() {
-        let record = fw_config::encode(s)
-            .unwrap_or_else(|| panic!("row {i} does not fit the fixture layout: {s:?}"));
-        bytes.extend_from_slice(&record);
-    }
+    let mut bytes = Vec::new();
+    fw_config::recording::encode(samples, |b| bytes.push(b))
+        .expect("every row fits the fixture layout");
     bytes
 }
 
@@ -122,17 +118,26 @@ fn fixture_is_the_emps_excerpt() {
         println!("wrote {}", fixture_path().display());
     }
     let bytes = fixture_bytes();
-    assert_eq!(bytes.len(), FIXTURE_SAMPLES * RECORD_BYTES, "fixture size");
     assert_eq!(bytes, encode(&samples), "fixture bytes");
+    println!(
+        "fixture: {} records in {} bytes ({:.2} per record)",
+        FIXTURE_SAMPLES,
+        bytes.len(),
+        bytes.len() as f64 / FIXTURE_SAMPLES as f64
+    );
+    let mut cursor = fw_config::Cursor::new();
     for (i, expected) in samples.iter().enumerate() {
-        assert_eq!(
-            fw_config::record(&bytes, i).as_ref(),
-            Some(expected),
-            "record {i}"
-        );
+        assert_eq!(cursor.index(), i);
+        assert_eq!(cursor.next(&bytes).as_ref(), Some(expected), "record {i}");
     }
+    assert_eq!(cursor.next(&bytes), None, "past the end");
+    assert_eq!(cursor.index(), FIXTURE_SAMPLES);
     assert_eq!(
-        fw_config::record(&bytes, FIXTURE_SAMPLES),
+        fw_config::recording::record(&bytes, 17).as_ref(),
+        samples.get(17)
+    );
+    assert_eq!(
+        fw_config::recording::record(&bytes, FIXTURE_SAMPLES),
         None,
         "past the end"
     );
@@ -251,8 +256,9 @@ fn altered_loop_words_are_refused() {
             Ok(config) if trial % 50 == 0 => {
                 let mut state = config.new_state();
                 let fixture = fixture_bytes();
-                for i in 0..64 {
-                    let s = fw_config::record(&fixture, i).expect("record");
+                let mut cursor = fw_config::Cursor::new();
+                for _ in 0..64 {
+                    let s = cursor.next(&fixture).expect("record");
                     config.step_shadow(&mut state, s.r, s.y, s.u);
                 }
             }
@@ -263,6 +269,75 @@ fn altered_loop_words_are_refused() {
     }
     println!("random single-word changes: {refused} of 20000 refused");
     assert!(refused > 1_000, "{refused}");
+}
+
+/// The recording's codec on values at the edges of its layout, on refused samples, and on cut
+/// or corrupted bytes (never a panic).
+#[test]
+fn recording_codec_round_trips_and_refuses() {
+    use sledid::{PositionI48F16, SignalI16F16};
+    let sample = |y: i64, r: i64, u: i32| Sample {
+        y: PositionI48F16::from_raw(y << 16),
+        r: PositionI48F16::from_raw(r),
+        u: SignalI16F16::from_raw(u),
+    };
+    let max_r = (1i64 << 47) - 1;
+    let edges = [
+        sample(0, 0, 0),
+        sample(i64::from(i32::MAX), max_r, i32::from(i16::MAX)),
+        sample(i64::from(i32::MIN), -max_r - 1, i32::from(i16::MIN)),
+        sample(i64::from(i32::MAX), -max_r - 1, i32::from(i16::MAX)),
+        sample(-1, 1, -1),
+        sample(i64::from(i32::MIN), max_r, i32::from(i16::MIN)),
+    ];
+    let bytes = encode(&edges);
+    let mut cursor = fw_config::Cursor::new();
+    for (i, s) in edges.iter().enumerate() {
+        assert_eq!(cursor.next(&bytes).as_ref(), Some(s), "edge {i}");
+    }
+    assert_eq!(cursor.next(&bytes), None);
+    // Samples outside the layout are refused.
+    for bad in [
+        Sample {
+            y: PositionI48F16::from_raw(1),
+            ..edges[0]
+        },
+        sample(i64::from(i32::MAX) + 1, 0, 0),
+        sample(0, 1 << 47, 0),
+        sample(0, 0, 1 << 15),
+    ] {
+        assert_eq!(
+            fw_config::recording::encode(&[bad], |_| {}),
+            None,
+            "{bad:?}"
+        );
+    }
+    // Cut bytes: the records before the cut, then None, and the cursor stays put.
+    for cut in 0..bytes.len() {
+        let mut cursor = fw_config::Cursor::new();
+        let mut n = 0;
+        while cursor.next(&bytes[..cut]).is_some() {
+            n += 1;
+        }
+        assert!(n < edges.len(), "cut at {cut}");
+        let before = cursor;
+        assert_eq!(cursor.next(&bytes[..cut]), None);
+        assert_eq!(cursor, before);
+    }
+    // Corrupted bytes of the real fixture: never a panic, never past the end.
+    let fixture = fixture_bytes();
+    let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+    for _ in 0..200 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let mut bad = fixture.clone();
+        let at = (x as usize) % bad.len();
+        bad[at] ^= (x >> 32) as u8 | 1;
+        let mut cursor = fw_config::Cursor::new();
+        while cursor.next(&bad).is_some() {}
+        assert!(cursor.index() <= bad.len() / 3);
+    }
 }
 
 #[test]

@@ -41,14 +41,9 @@
 #[path = "firmware/config.rs"]
 mod fw_config;
 
-/// The embedded recording (layout: [`fw_config`]'s module doc).
+/// The embedded recording: [`fw_config::FIXTURE_SAMPLES`] delta-encoded records (layout:
+/// [`fw_config::recording`]; the host test checks the count).
 static FIXTURE: &[u8] = include_bytes!("../../fixtures/emps_excerpt.bin");
-
-/// The fixture holds exactly [`fw_config::FIXTURE_SAMPLES`] records (checked when compiling).
-const _: () = assert!(
-    include_bytes!("../../fixtures/emps_excerpt.bin").len()
-        == fw_config::FIXTURE_SAMPLES * fw_config::RECORD_BYTES
-);
 
 #[cfg(target_os = "none")]
 mod target {
@@ -64,7 +59,7 @@ mod target {
 
     use super::FIXTURE;
     use super::fw_config::{
-        self, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
+        self, Cursor, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
         U_FULL_SCALE_V,
     };
 
@@ -141,8 +136,8 @@ mod target {
     struct Ticker {
         /// The loop and its checksum.
         run: Run,
-        /// Index of the next record.
-        next: usize,
+        /// The read position in the recording (index of the next record).
+        cursor: Cursor,
         /// Telemetry out.
         producer: Producer<'static, Telemetry>,
         /// Records dropped on a full queue.
@@ -152,12 +147,13 @@ mod target {
     impl Ticker {
         /// One sample period: the next record through the loop.
         fn tick(&mut self) -> Tick {
-            let Some(sample) = fw_config::record(FIXTURE, self.next) else {
+            let index = self.cursor.index();
+            let Some(sample) = self.cursor.next(FIXTURE) else {
                 return Tick::Idle;
             };
             let out = self.run.step(&sample);
             let record = Telemetry {
-                index: self.next as u32,
+                index: index as u32,
                 u_raw: out.u.raw(),
                 region: out.region.index(),
                 control_bits: out.control.bits(),
@@ -168,8 +164,7 @@ mod target {
             if self.producer.enqueue(record).is_err() {
                 self.dropped = self.dropped.saturating_add(1);
             }
-            self.next = self.next.saturating_add(1);
-            if self.next == FIXTURE_SAMPLES {
+            if self.cursor.index() == FIXTURE_SAMPLES {
                 Tick::Finished(Finished {
                     summary: self.run.summary(),
                     dropped: self.dropped,
@@ -302,7 +297,7 @@ mod target {
         let config = fw_config::config().ok()?;
         Some(slot.insert(Ticker {
             run: Run::from_config(config),
-            next: 0,
+            cursor: Cursor::new(),
             producer,
             dropped: 0,
         }))
@@ -348,7 +343,7 @@ mod target {
             drain(&mut consumer, &mut received);
             if let Some(ticker) = critical_section::with(|cs| REDESIGN.borrow(cs).take()) {
                 let outcome = ticker.run.redesign();
-                let at = ticker.next;
+                let at = ticker.cursor.index();
                 critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
                 redesigns = redesigns.saturating_add(1);
                 if redesigns <= 3 {
@@ -446,10 +441,12 @@ mod target {
         use sledid::{Sample, Status};
 
         use super::super::FIXTURE;
-        use super::fw_config::{self, FIXTURE_SAMPLES, Run};
+        use super::fw_config::{self, Cursor, FIXTURE_SAMPLES, Run};
 
         /// The run `count_insns.py` measures (independent of the firmware's own).
         static BENCH: Mutex<RefCell<Option<Run>>> = Mutex::new(RefCell::new(None));
+        /// The bench's read position in the recording.
+        static BENCH_CURSOR: Mutex<RefCell<Cursor>> = Mutex::new(RefCell::new(Cursor::new()));
 
         /// `--init`: a fresh run for [`sledid_fw_bench_step`].
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
@@ -459,14 +456,30 @@ mod target {
             critical_section::with(|cs| BENCH.borrow(cs).replace(run));
         }
 
+        /// Record `index`: the next one of the bench's cursor when the calls go in order (as
+        /// `count_insns.py --args i` makes them), else decoded from the start.
+        #[inline(never)]
+        fn bench_record(cursor: &mut Cursor, index: usize) -> Option<Sample> {
+            if cursor.index() != index {
+                *cursor = Cursor::new();
+                while cursor.index() < index {
+                    cursor.next(FIXTURE)?;
+                }
+            }
+            cursor.next(FIXTURE)
+        }
+
         /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
         /// run was not initialised).
         #[inline(always)]
         fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
-            let sample = fw_config::record(FIXTURE, i as usize % FIXTURE_SAMPLES);
-            critical_section::with(|cs| match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
-                (Some(run), Some(sample)) => f(run, &sample),
-                _ => 0,
+            critical_section::with(|cs| {
+                let index = i as usize % FIXTURE_SAMPLES;
+                let sample = bench_record(&mut BENCH_CURSOR.borrow_ref_mut(cs), index);
+                match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
+                    (Some(run), Some(sample)) => f(run, &sample),
+                    _ => 0,
+                }
             })
         }
 

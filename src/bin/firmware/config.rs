@@ -38,17 +38,11 @@
 //! × 5·10⁻⁸ m)`. See [`design`] for the priors.
 //!
 //! # Fixture layout
-//! [`FIXTURE_SAMPLES`] records of [`RECORD_BYTES`] bytes, little-endian, no header:
-//!
-//! | bytes | field | format |
-//! |---|---|---|
-//! | 0..4 | y, measured position | whole quanta, `i32` (the encoder's positions are on its grid) |
-//! | 4..10 | r, reference position | [`PositionI48F16`] raw, 48-bit two's complement (quanta × 2¹⁶) |
-//! | 10..12 | u, drive | [`SignalI16F16`] raw, `i16` (fraction of [`U_FULL_SCALE_V`] × 2¹⁶, so \|u\| < 5 V) |
-//!
-//! 12 bytes instead of the 20 of the in-memory `Sample` (`i64`, `i64`, `i32`): [`encode`] refuses a
-//! sample that does not fit (y off the grid, r beyond ±2⁴⁷ raw, \|u\| ≥ 5 V), so [`decode`] returns
-//! exactly the sample that was encoded.
+//! [`FIXTURE_SAMPLES`] records, delta-encoded with variable length ([`recording`]: three zigzag
+//! varints per record, Δ²y in whole quanta, Δ³r in raw [`sledid::PositionI48F16`], Δ²u in raw
+//! [`sledid::SignalI16F16`]), no header. [`recording::encode`] refuses a sample that does not fit (y off
+//! the grid or beyond `i32` quanta, r beyond ±2⁴⁷ raw, \|u\| ≥ 5 V), so [`recording::Cursor`]
+//! returns exactly the samples that were encoded.
 //!
 //! # Checksum
 //! FNV-1a 64 (offset basis `0xcbf29ce484222325`, prime `0x100000001b3`) over, for every sample in
@@ -76,7 +70,12 @@ use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
 
 include!("loop_words.rs");
-use sledid::{PositionI48F16, Sample, SignalI16F16};
+
+#[path = "recording.rs"]
+pub mod recording;
+
+pub use recording::Cursor;
+use sledid::Sample;
 
 /// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
 pub const N: usize = VELOCITY_N;
@@ -97,18 +96,15 @@ pub const EMPS_KP_PER_S: f64 = 160.18;
 /// EMPS velocity-loop gain kv, V/(m/s) (`shared/data` README).
 pub const EMPS_KV_V_S_PER_M: f64 = 243.45;
 
-/// Sensor quantum of the EMPS encoder, m (one [`PositionI48F16`] unit).
+/// Sensor quantum of the EMPS encoder, m (one [`sledid::PositionI48F16`] unit).
 pub const QUANTUM_M: f64 = 5e-8;
 
-/// Full-scale drive, V (one [`SignalI16F16`] unit of u).
+/// Full-scale drive, V (one [`sledid::SignalI16F16`] unit of u).
 pub const U_FULL_SCALE_V: f64 = 10.0;
 
 /// Records in the fixture: the first 640 rows of `DATA_EMPS.csv` (sized so that the firmware image,
 /// fixture included, fits the 32 KiB flash budget; see `BENCHMARKS.md`).
 pub const FIXTURE_SAMPLES: usize = 640;
-
-/// Bytes per fixture record: y (`i32` quanta), r (48-bit raw), u (`i16` raw), little-endian.
-pub const RECORD_BYTES: usize = 12;
 
 /// What starts the firmware's result line (followed by a space and the [`Summary`]).
 pub const RESULT_PREFIX: &str = "sledid-fw result:";
@@ -191,58 +187,6 @@ pub fn design() -> LoopDesign {
 /// The words' [`ConfigError`] (none for the committed words; the tests decode them).
 pub fn config() -> Result<LoopConfig, ConfigError> {
     LoopConfig::from_words(&LOOP_WORDS)
-}
-
-/// Fraction bits of a [`PositionI48F16`] (y is stored in whole quanta).
-const POSITION_FRAC_BITS: u32 = 16;
-
-/// Decodes one record (the first [`RECORD_BYTES`] bytes of `bytes`); `None` if it is shorter.
-pub fn decode(bytes: &[u8]) -> Option<Sample> {
-    let (y, rest) = bytes.split_first_chunk::<4>()?;
-    let (r, rest) = rest.split_first_chunk::<6>()?;
-    let (u, _) = rest.split_first_chunk::<2>()?;
-    // r: sign-extend the 48-bit field (placed in the top of an i64, shifted back arithmetically).
-    let mut r8 = [0u8; 8];
-    if let Some(top) = r8.get_mut(2..) {
-        top.copy_from_slice(r);
-    }
-    Some(Sample {
-        y: PositionI48F16::from_raw(i64::from(i32::from_le_bytes(*y)) << POSITION_FRAC_BITS),
-        u: SignalI16F16::from_raw(i32::from(i16::from_le_bytes(*u))),
-        r: PositionI48F16::from_raw(i64::from_le_bytes(r8) >> 16),
-    })
-}
-
-/// Encodes one record (the inverse of [`decode`]); `None` when the sample does not fit the layout
-/// (module doc). Used by the host test that writes and checks the fixture, not by the firmware.
-#[allow(dead_code)]
-pub fn encode(sample: &Sample) -> Option<[u8; RECORD_BYTES]> {
-    let y_raw = sample.y.raw();
-    if y_raw & ((1 << POSITION_FRAC_BITS) - 1) != 0 {
-        return None;
-    }
-    let y = i32::try_from(y_raw >> POSITION_FRAC_BITS).ok()?;
-    let r_raw = sample.r.raw();
-    if !(-(1i64 << 47)..1i64 << 47).contains(&r_raw) {
-        return None;
-    }
-    let u = i16::try_from(sample.u.raw()).ok()?;
-    let mut out = [0u8; RECORD_BYTES];
-    let fields = y
-        .to_le_bytes()
-        .into_iter()
-        .chain(r_raw.to_le_bytes().into_iter().take(6))
-        .chain(u.to_le_bytes());
-    for (dst, b) in out.iter_mut().zip(fields) {
-        *dst = b;
-    }
-    Some(out)
-}
-
-/// Record `index` of a fixture (constant time); `None` past its end.
-pub fn record(fixture: &[u8], index: usize) -> Option<Sample> {
-    let start = index.checked_mul(RECORD_BYTES)?;
-    decode(fixture.get(start..)?)
 }
 
 /// FNV-1a, 64 bits, over a byte stream.
@@ -437,11 +381,10 @@ impl Run {
 #[allow(dead_code)] // the firmware steps the run from its interrupt instead
 pub fn replay(fixture: &[u8]) -> Result<Summary, ConfigError> {
     let mut run = Run::new()?;
-    let mut index = 0;
-    while let Some(sample) = record(fixture, index) {
+    let mut cursor = Cursor::new();
+    while let Some(sample) = cursor.next(fixture) {
         run.step(&sample);
-        index += 1;
-        if run.redesign_pending() && record(fixture, index).is_some() {
+        if run.redesign_pending() && cursor.clone().next(fixture).is_some() {
             run.redesign();
         }
     }
