@@ -286,34 +286,33 @@ mod target {
         (bottom, top)
     }
 
-    /// Builds the run into `slot` (`None` if the design does not build). Out of line, so that
-    /// the build's temporaries (the design in f64, the configuration before it is moved into
-    /// place) live in a frame that is gone before SysTick starts.
+    /// Builds the run into its static storage, once (`None` if the configuration words do not
+    /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (an
+    /// `Option<Ticker>` static would start as a non-zero `None` and take its size twice, in
+    /// `.data` and in flash). Out of line, so that the decoding's temporaries live in a frame
+    /// that is gone before SysTick starts.
     #[inline(never)]
-    fn install(
-        slot: &'static mut Option<Ticker>,
-        producer: Producer<'static, Telemetry>,
-    ) -> Option<&'static mut Ticker> {
-        let config = fw_config::config().ok()?;
-        Some(slot.insert(Ticker {
-            run: Run::from_config(config),
+    fn install(producer: Producer<'static, Telemetry>) -> Option<&'static mut Ticker> {
+        cortex_m::singleton!(TICKER: Ticker = Ticker {
+            run: match fw_config::config() {
+                Ok(config) => Run::from_config(config),
+                Err(_) => return None,
+            },
             cursor: Cursor::new(),
             producer,
             dropped: 0,
-        }))
+        })
     }
 
-    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. `slot`
-    /// is where the ticker (the run state) lives: the handler only gets a reference to it.
-    fn run(
-        queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>,
-        slot: &'static mut Option<Ticker>,
-    ) -> bool {
+    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. The
+    /// ticker (the run state) lives in [`install`]'s static storage: the handler only gets a
+    /// reference to it.
+    fn run(queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>) -> bool {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
         let (producer, mut consumer) = queue.split();
-        let Some(ticker) = install(slot, producer) else {
+        let Some(ticker) = install(producer) else {
             defmt::println!("sledid-fw: the design does not build");
             return false;
         };
@@ -400,12 +399,11 @@ mod target {
     #[entry]
     fn main() -> ! {
         static mut QUEUE: Queue<Telemetry, QUEUE_SLOTS> = Queue::new();
-        static mut TICKER: Option<Ticker> = None;
         // Nothing calls the bench exports; referencing them keeps the linker from dropping them.
         #[cfg(feature = "fw-bench")]
         core::hint::black_box(&bench::BENCH_EXPORTS);
         paint_stack();
-        let ok = run(QUEUE, TICKER);
+        let ok = run(QUEUE);
         debug::exit(if ok {
             debug::EXIT_SUCCESS
         } else {
