@@ -122,9 +122,10 @@ impl LoopDesign {
     }
 
     /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
-    /// controller's ([`ScheduledConfig`]), the velocity identifier's
-    /// ([`IdentifierDesign::put_words`]), then the Wiener model's if any (a `bool`, then
-    /// [`NonlinearDesign::put_words`]). [`LoopConfig::from_words`] reads them back into the
+    /// velocity identifier's ([`IdentifierDesign::put_words`]), the Wiener model's if any (a
+    /// `bool`, then [`NonlinearDesign::put_words`]), then the controller's ([`ScheduledConfig`];
+    /// last, so that [`LoopConfig::from_words`] can decode the largest part straight into its
+    /// result instead of into a copy on the stack). [`LoopConfig::from_words`] reads them back into the
     /// configuration [`Self::build`] gives. Returns the number of words written.
     ///
     /// # Errors
@@ -132,19 +133,19 @@ impl LoopDesign {
     /// ([`LOOP_WORDS_MAX`] always suffices).
     pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
         let mut w = WordWriter::new(out);
-        self.controller.build()?.put(&mut w)?;
         self.velocity.put_words(&mut w)?;
         self.wiener.is_some().put(&mut w)?;
         if let Some(wiener) = &self.wiener {
             wiener.put_words(&mut w)?;
         }
+        self.controller.build()?.put(&mut w)?;
         Ok(w.len())
     }
 }
 
-/// A buffer size that holds the words of any [`LoopDesign`]: at most 181 (134 for the controller
-/// with both input maps, 25 for the velocity identifier with a stuck-sensor check and a pole
-/// radius, 22 for the Wiener model).
+/// A buffer size that holds the words of any [`LoopDesign`]: at most 181 (25 for the velocity
+/// identifier with a stuck-sensor check and a pole radius, 22 for the Wiener model, 134 for the
+/// controller with both input maps).
 pub const LOOP_WORDS_MAX: usize = 192;
 
 impl LoopConfig {
@@ -157,20 +158,37 @@ impl LoopConfig {
     /// [`ConfigError::Words`] at the first word that is missing, invalid or fails its check (or
     /// the first word left over), or an RLS design's error.
     pub fn from_words(words: &[u32]) -> Result<Self, ConfigError> {
+        let mut slot = None;
+        Self::from_words_into(words, &mut slot)?;
+        slot.ok_or(ConfigError::Words { at: 0 })
+    }
+
+    /// [`Self::from_words`] into `slot` (`None` on an error), for a caller with static storage
+    /// for the configuration: the controller's part, the largest, is decoded straight into it
+    /// rather than into a copy on the stack.
+    ///
+    /// # Errors
+    /// As [`Self::from_words`].
+    pub fn from_words_into(words: &[u32], slot: &mut Option<Self>) -> Result<(), ConfigError> {
+        *slot = None;
         let mut r = WordReader::new(words);
-        let controller = ScheduledConfig::take(&mut r);
         let velocity = IdentifierConfig::take_words(&mut r)?;
         let wiener = match bool::take(&mut r) {
             true => Some(NonlinearConfig::take_words(&mut r)?),
             false => None,
         };
-        r.finish()?;
-        Ok(Self {
-            controller,
+        // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
+        let _config = slot.insert(Self {
+            controller: ScheduledConfig::take(&mut r),
             velocity,
             wiener,
             decimator: DecimatorConfig::HALF_BAND_23,
-        })
+        });
+        let done = r.finish();
+        if done.is_err() {
+            *slot = None;
+        }
+        done
     }
 
     /// A fresh state.

@@ -41,6 +41,7 @@ use fw_config::{
 };
 use sledid::error::ConfigError;
 use sledid::sled_loop::{LOOP_WORDS_MAX, LoopConfig};
+use sledid::words::{WordWriter, Words};
 use sledid::{Sample, Scaling};
 use sledid_host::recording::{ReaderOptions, RecordingReader};
 
@@ -213,15 +214,29 @@ fn altered_loop_words_are_refused() {
             "{n} words"
         );
     }
+    // Decoding into a slot: the configuration, or `None` on an error.
+    let mut slot = None;
+    assert_eq!(LoopConfig::from_words_into(&words, &mut slot), Ok(()));
+    assert_eq!(slot, fw_config::design().build().ok());
+    assert!(LoopConfig::from_words_into(&words[..words.len() - 1], &mut slot).is_err());
+    assert_eq!(slot, None);
     let mut long = words.clone();
     long.push(0);
     assert_eq!(
         LoopConfig::from_words(&long),
         Err(ConfigError::Words { at: words.len() })
     );
-    // Values out of their field's range, in the baseline PID (kp, ki·Ts, kd: words 0–5, I_max
-    // and u_max: 6–9): derivative_on (10) has two variants, the derivative length (11) is 1…4,
-    // β (12) and 1 − α (13) are at most 1 in U1F31.
+    // Values out of their field's range, in the controller's baseline PID (the controller's
+    // words come last; kp, ki·Ts, kd: 6 words, I_max and u_max: 4): derivative_on (+10) has two
+    // variants, the derivative length (+11) is 1…4, β (+12) and 1 − α (+13) are at most 1 in
+    // U1F31.
+    let controller = fw_config::design().controller.build().expect("controller");
+    let mut buf = [0u32; LOOP_WORDS_MAX];
+    let mut w = WordWriter::new(&mut buf);
+    controller.put(&mut w).expect("controller words");
+    let n = w.len();
+    assert_eq!(&words[words.len() - n..], &buf[..n]);
+    let pid = words.len() - n;
     for (at, value) in [
         (10, 2),
         (11, 0),
@@ -229,6 +244,7 @@ fn altered_loop_words_are_refused() {
         (12, u32::MAX),
         (13, (1 << 31) + 1),
     ] {
+        let at = pid + at;
         let mut bad = words.clone();
         bad[at] = value;
         assert_eq!(

@@ -56,6 +56,7 @@ mod target {
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
     use sledid::control::Redesign;
+    use sledid::sled_loop::LoopConfig;
 
     use super::FIXTURE;
     use super::fw_config::{
@@ -135,7 +136,7 @@ mod target {
     /// Everything the SysTick handler owns: the run, the read position and the queue's producer.
     struct Ticker {
         /// The loop and its checksum.
-        run: Run,
+        run: FwRun,
         /// The read position in the recording (index of the next record).
         cursor: Cursor,
         /// Telemetry out.
@@ -286,22 +287,37 @@ mod target {
         (bottom, top)
     }
 
-    /// Builds the run into its static storage, once (`None` if the configuration words do not
-    /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (an
-    /// `Option<Ticker>` static would start as a non-zero `None` and take its size twice, in
-    /// `.data` and in flash). Out of line, so that the decoding's temporaries live in a frame
-    /// that is gone before SysTick starts.
+    /// The run the handler steps: its configuration borrowed from [`install_config`]'s storage.
+    type FwRun = Run<&'static mut LoopConfig>;
+
+    /// Decodes the configuration words into their static storage, once (`None` if they do not
+    /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (a
+    /// static `Option` would start as a non-zero `None`, in `.data`, and take its size twice: in
+    /// RAM and in flash); it starts empty and the configuration is decoded into it, so that the
+    /// frame holds one copy at most. Out of line, so that the decoding's temporaries are gone
+    /// before [`install`] runs and SysTick starts.
     #[inline(never)]
-    fn install(producer: Producer<'static, Telemetry>) -> Option<&'static mut Ticker> {
-        cortex_m::singleton!(TICKER: Ticker = Ticker {
-            run: match fw_config::config() {
-                Ok(config) => Run::from_config(config),
-                Err(_) => return None,
-            },
+    fn install_config() -> Option<&'static mut LoopConfig> {
+        let slot = cortex_m::singleton!(CONFIG: Option<LoopConfig> = None)?;
+        fw_config::config_into(slot).ok()?;
+        slot.as_mut()
+    }
+
+    /// Builds the ticker (the run state on `config`, the read position, the producer) into its
+    /// static storage (`.bss`, as [`install_config`]'s), once: `None` on a second call. Called
+    /// after [`install_config`] has returned, so that their frames do not add up.
+    #[inline(never)]
+    fn install(
+        config: &'static mut LoopConfig,
+        producer: Producer<'static, Telemetry>,
+    ) -> Option<&'static mut Ticker> {
+        let slot = cortex_m::singleton!(TICKER: Option<Ticker> = None)?;
+        Some(slot.insert(Ticker {
+            run: Run::from_config(config),
             cursor: Cursor::new(),
             producer,
             dropped: 0,
-        })
+        }))
     }
 
     /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. The
@@ -312,7 +328,7 @@ mod target {
             return false;
         };
         let (producer, mut consumer) = queue.split();
-        let Some(ticker) = install(producer) else {
+        let Some(ticker) = install_config().and_then(|config| install(config, producer)) else {
             defmt::println!("sledid-fw: the design does not build");
             return false;
         };

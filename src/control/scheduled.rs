@@ -531,6 +531,7 @@ impl Words for ScheduledConfig {
         self.compensation.put(w)?;
         self.output_map.put(w)
     }
+    #[inline(never)] // written straight into the caller's result, not into a copy on its stack
     fn take(r: &mut WordReader<'_>) -> Self {
         let baseline = PidConfig::take(r);
         let selector = RegionSelector::take(r);

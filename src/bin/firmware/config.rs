@@ -61,6 +61,7 @@
 //!
 //! 34 bytes per sample, 44 on the samples where the Wiener estimator runs.
 
+use core::borrow::BorrowMut;
 use core::fmt;
 
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
@@ -185,8 +186,19 @@ pub fn design() -> LoopDesign {
 ///
 /// # Errors
 /// The words' [`ConfigError`] (none for the committed words; the tests decode them).
+#[allow(dead_code)] // the firmware itself decodes into its static storage: `config_into`
 pub fn config() -> Result<LoopConfig, ConfigError> {
     LoopConfig::from_words(&LOOP_WORDS)
+}
+
+/// [`config`] decoded into `slot` ([`LoopConfig::from_words_into`]: without a copy of the
+/// controller's part on the stack); `None` in `slot` on an error.
+///
+/// # Errors
+/// As [`config`].
+#[allow(dead_code)] // the firmware's; the host replays from `design`
+pub fn config_into(slot: &mut Option<LoopConfig>) -> Result<(), ConfigError> {
+    LoopConfig::from_words_into(&LOOP_WORDS, slot)
 }
 
 /// FNV-1a, 64 bits, over a byte stream.
@@ -267,10 +279,14 @@ impl Default for Fnv1a64 {
 
 /// One replay of the loop: configuration, state, and the checksum of everything it produced.
 /// The firmware's SysTick handler and the host replay both step this, one sample at a time.
+///
+/// `C` holds the configuration: the host owns it (`LoopConfig`, the default); the firmware
+/// borrows it from its own static storage (`&'static mut LoopConfig`), so that the run and the
+/// configuration are each built in place, one after the other, not in one stack frame.
 #[derive(Clone, Debug)]
-pub struct Run {
+pub struct Run<C = LoopConfig> {
     /// The validated configuration of [`design`] (its controller gains swapped by redesigns).
-    pub(crate) config: LoopConfig,
+    pub(crate) config: C,
     /// The loop's state.
     pub(crate) state: LoopState,
     checksum: Fnv1a64,
@@ -292,13 +308,15 @@ impl Run {
     pub fn new() -> Result<Self, ConfigError> {
         Ok(Self::from_config(design().build()?))
     }
+}
 
+impl<C: BorrowMut<LoopConfig>> Run<C> {
     /// A fresh run of a built configuration (infallible, so that the firmware can construct it
     /// in place).
     #[inline(always)]
-    pub fn from_config(config: LoopConfig) -> Self {
+    pub fn from_config(config: C) -> Self {
         Self {
-            state: config.new_state(),
+            state: config.borrow().new_state(),
             config,
             checksum: Fnv1a64::new(),
             samples: 0,
@@ -313,7 +331,7 @@ impl Run {
     /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
     #[inline(never)]
     pub fn step(&mut self, sample: &Sample) -> LoopOutput {
-        let out = loop_step(&self.config, &mut self.state, sample);
+        let out = loop_step(self.config.borrow(), &mut self.state, sample);
         self.checksum.write_output(&out);
         self.samples = self.samples.wrapping_add(1);
         if out.velocity.status.contains(sledid::Status::UPDATED) {
@@ -335,7 +353,7 @@ impl Run {
 
     /// The slow-rate redesign (f32; from the main loop, not the interrupt), counted by outcome.
     pub fn redesign(&mut self) -> Redesign {
-        let outcome = self.config.redesign(&mut self.state);
+        let outcome = self.config.borrow_mut().redesign(&mut self.state);
         let count = match outcome {
             Redesign::Applied(_) => &mut self.applied,
             Redesign::Rejected(_) => &mut self.rejected,
@@ -365,7 +383,7 @@ impl Run {
             updates: self.updates,
             wiener_updates: self.wiener_updates,
             redesigns: [self.applied, self.rejected, self.skipped],
-            fallback: self.config.controller().fallback(),
+            fallback: self.config.borrow().controller().fallback(),
             checksum: self.checksum.value(),
             theta_raw,
             wiener_raw,
