@@ -106,6 +106,13 @@ macro_rules! fixed_newtype {
                 f64::from(self.0) / (1u64 << $frac) as f64
             }
 
+            /// To `f32`: the same value as `to_f64() as f32` (one rounding of the raw integer to
+            /// 24 bits, then an exact division by a power of two), without `f64` arithmetic.
+            #[allow(clippy::float_arithmetic)]
+            pub fn to_f32(self) -> f32 {
+                self.0 as f32 / (1u64 << $frac) as f32
+            }
+
             /// Saturating sum.
             #[must_use]
             pub const fn saturating_add(self, rhs: Self) -> Self {
@@ -180,6 +187,36 @@ pub const fn sat_i32(x: i64, saturated: &mut bool) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn to_f32_is_to_f64_rounded_once() {
+        // Edges, values that need rounding (more than 24 significant bits, ties included) and a
+        // pseudo-random sweep of raw values.
+        let edges = [
+            0,
+            1,
+            -1,
+            i32::MAX,
+            i32::MIN,
+            (1 << 24) + 1,
+            (1 << 24) + 3,
+            -(1 << 25) - 2,
+        ];
+        let mut x = 0x1234_5678_u32;
+        let sweep = core::iter::repeat_with(move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as i32
+        });
+        let raws = edges.into_iter().chain(sweep.take(100_000));
+        for raw in raws {
+            let p = ParamI12F20::from_raw(raw);
+            assert_eq!(p.to_f32().to_bits(), (p.to_f64() as f32).to_bits(), "{raw}");
+            let s = SignalI16F16::from_raw(raw);
+            assert_eq!(s.to_f32().to_bits(), (s.to_f64() as f32).to_bits(), "{raw}");
+        }
+    }
 
     #[test]
     fn conversions_reject_bad_values() {

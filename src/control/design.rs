@@ -195,8 +195,8 @@ pub fn reduce(
     na: usize,
     limits: &SupervisorDesign,
 ) -> Result<VelocityModel, Rejection> {
-    let f = |i: usize| theta.get(i).map(|p| p.to_f64() as f32);
-    let b_sum: f32 = theta.iter().skip(na).map(|p| p.to_f64() as f32).sum();
+    let f = |i: usize| theta.get(i).map(|p| p.to_f32());
+    let b_sum: f32 = theta.iter().skip(na).map(|p| p.to_f32()).sum();
     if theta.len() <= na {
         return Err(Rejection::ModelOrder);
     }
