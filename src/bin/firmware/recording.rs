@@ -14,8 +14,8 @@
 //! | 3 | Δ²u(k), raw I16F16 (full scale × 2¹⁶) |
 //!
 //! with every value before the first record taken as zero (so the first record carries y(0),
-//! r(0) and u(0) themselves). Differences wrap in `i64`, so [`encode`] and [`Cursor::next`] are
-//! exact inverses for every sample the layout holds: y a whole number of quanta in `i32`,
+//! r(0) and u(0) themselves). Differences wrap (in `i32` for y and u, in `i64` for r), so
+//! [`encode`] and [`Cursor::next`] are exact inverses for every sample the layout holds: y a whole number of quanta in `i32`,
 //! |r| < 2⁴⁷ raw, u in `i16` raw (|u| < ½ full scale); [`encode`] refuses any other. On the
 //! 640-row EMPS excerpt this takes 2.1 KB instead of the 7.7 KB of fixed 12-byte records.
 //!
@@ -40,25 +40,39 @@ pub struct Cursor {
     at: usize,
     /// Records decoded so far.
     index: usize,
-    /// y(k−1), Δy(k−1), whole quanta.
-    y: [i64; 2],
-    /// r(k−1), Δr(k−1), Δ²r(k−1), raw I48F16.
+    /// y(k−1), Δy(k−1), whole quanta (differences wrap in `i32`).
+    y: [i32; 2],
+    /// r(k−1), Δr(k−1), Δ²r(k−1), raw I48F16 (differences wrap in `i64`).
     r: [i64; 3],
-    /// u(k−1), Δu(k−1), raw I16F16.
-    u: [i64; 2],
+    /// u(k−1), Δu(k−1), raw I16F16 (differences wrap in `i32`).
+    u: [i32; 2],
 }
 
 /// The zigzag LEB128 varint at `bytes[*at..]`; advances `at`. `None` if it is cut off or longer
-/// than [`VARINT_MAX_BYTES`].
+/// than [`VARINT_MAX_BYTES`]. One-byte varints (|v| < 64, most of a smooth recording's
+/// differences) take the short path.
+#[inline(always)]
 fn varint(bytes: &[u8], at: &mut usize) -> Option<i64> {
-    let mut z = 0u64;
-    for k in 0..VARINT_MAX_BYTES {
+    let b = *bytes.get(*at)?;
+    *at += 1;
+    let z = if b & 0x80 == 0 {
+        u64::from(b)
+    } else {
+        varint_tail(bytes, at, u64::from(b & 0x7f))?
+    };
+    Some((z >> 1) as i64 ^ -((z & 1) as i64))
+}
+
+/// The bytes after the first of a longer varint: `z` holds the first 7 bits.
+#[inline(never)]
+fn varint_tail(bytes: &[u8], at: &mut usize, mut z: u64) -> Option<u64> {
+    for k in 1..VARINT_MAX_BYTES {
         let b = *bytes.get(*at)?;
         *at += 1;
         // k ≤ 9: the shift is at most 63 (the tenth byte's high bits fall off).
         z |= u64::from(b & 0x7f) << (7 * k);
         if b & 0x80 == 0 {
-            return Some((z >> 1) as i64 ^ -((z & 1) as i64));
+            return Some(z);
         }
     }
     None
@@ -96,9 +110,10 @@ impl Cursor {
     /// or outside the layout (the cursor then stays where it was). Never panics.
     pub fn next(&mut self, bytes: &[u8]) -> Option<Sample> {
         let mut at = self.at;
-        let ddy = varint(bytes, &mut at)?;
+        // Δ²y and Δ²u wrap in i32 (as `encode` computes them), Δ³r in i64.
+        let ddy = varint(bytes, &mut at)? as i32;
         let dddr = varint(bytes, &mut at)?;
-        let ddu = varint(bytes, &mut at)?;
+        let ddu = varint(bytes, &mut at)? as i32;
         let dy = self.y[1].wrapping_add(ddy);
         let y = self.y[0].wrapping_add(dy);
         let ddr = self.r[2].wrapping_add(dddr);
@@ -106,7 +121,6 @@ impl Cursor {
         let r = self.r[0].wrapping_add(dr);
         let du = self.u[1].wrapping_add(ddu);
         let u = self.u[0].wrapping_add(du);
-        let y_quanta = i32::try_from(y).ok()?;
         let u_raw = i16::try_from(u).ok()?;
         if !(-R_LIMIT..R_LIMIT).contains(&r) {
             return None;
@@ -119,7 +133,7 @@ impl Cursor {
             u: [u, du],
         };
         Some(Sample {
-            y: PositionI48F16::from_raw(i64::from(y_quanta) << POSITION_FRAC_BITS),
+            y: PositionI48F16::from_raw(i64::from(y) << POSITION_FRAC_BITS),
             u: SignalI16F16::from_raw(i32::from(u_raw)),
             r: PositionI48F16::from_raw(r),
         })
@@ -134,25 +148,25 @@ pub fn encode<'a>(
     samples: impl IntoIterator<Item = &'a Sample>,
     mut out: impl FnMut(u8),
 ) -> Option<()> {
-    let (mut y, mut r, mut u) = ([0i64; 2], [0i64; 3], [0i64; 2]);
+    let (mut y, mut r, mut u) = ([0i32; 2], [0i64; 3], [0i32; 2]);
     for s in samples {
         let y_raw = s.y.raw();
         if y_raw & ((1 << POSITION_FRAC_BITS) - 1) != 0 {
             return None;
         }
-        let y_now = i64::from(i32::try_from(y_raw >> POSITION_FRAC_BITS).ok()?);
+        let y_now = i32::try_from(y_raw >> POSITION_FRAC_BITS).ok()?;
         let r_now = s.r.raw();
         if !(-R_LIMIT..R_LIMIT).contains(&r_now) {
             return None;
         }
-        let u_now = i64::from(i16::try_from(s.u.raw()).ok()?);
+        let u_now = i32::from(i16::try_from(s.u.raw()).ok()?);
         let dy = y_now.wrapping_sub(y[0]);
         let dr = r_now.wrapping_sub(r[0]);
         let ddr = dr.wrapping_sub(r[1]);
         let du = u_now.wrapping_sub(u[0]);
-        put_varint(dy.wrapping_sub(y[1]), &mut out);
+        put_varint(i64::from(dy.wrapping_sub(y[1])), &mut out);
         put_varint(ddr.wrapping_sub(r[2]), &mut out);
-        put_varint(du.wrapping_sub(u[1]), &mut out);
+        put_varint(i64::from(du.wrapping_sub(u[1])), &mut out);
         (y, r, u) = ([y_now, dy], [r_now, dr, ddr], [u_now, du]);
     }
     Some(())
