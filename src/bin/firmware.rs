@@ -3,7 +3,10 @@
 //! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
 //! ([`sledid::sled_loop::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
 //! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
-//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`]),
+//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`],
+//! decoded at start-up from configuration words the host computed from its design
+//! (`src/bin/firmware/loop_words.rs`, [`sledid::words`]: of the `f64` design only the two RLS
+//! settings are built on the target),
 //! folds every output into a checksum and pushes a telemetry record into a fixed-capacity SPSC
 //! queue. The main loop drains the queue, counts the records, logs a few with defmt (over
 //! semihosting), and runs the controller's slow-rate gain redesign (f32) whenever the handler asks
@@ -329,7 +332,7 @@ mod target {
         };
         let (producer, mut consumer) = queue.split();
         let Some(ticker) = install_config().and_then(|config| install(config, producer)) else {
-            defmt::println!("sledid-fw: the design does not build");
+            defmt::println!("sledid-fw: the configuration words do not decode");
             return false;
         };
         defmt::println!(
