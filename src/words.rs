@@ -8,8 +8,10 @@
 //! them back (`from_words`/`take`) with integer checks only: every field must be a valid value of
 //! its type, and every invariant the per-sample code relies on (the checks of the matching
 //! `build`, where they are not about floats) is checked again. A word that fails gives
-//! [`ConfigError::Words`] with its index; decoding never panics. Round trips and the rejection
-//! of altered words are tested in `host-tests/tests/config_words.rs`.
+//! [`ConfigError::Words`] with its index; decoding never panics. Tested here (primitives), in
+//! `host-tests/tests/sled_loop.rs` (a design with every optional part round-trips) and in
+//! `host-tests/tests/firmware_qemu.rs` (the firmware's words are up to date; truncated, extended
+//! and corrupted words are refused, never with a panic).
 //!
 //! The RLS settings are the one exception: [`crate::rls::RlsConfig`] has no raw constructor, so
 //! the words carry the [`RlsDesign`] (its `f64` fields as bits) and `take` builds it
