@@ -15,7 +15,9 @@
 //! saturating and flagged, so absolute positions of millions of quanta are fine.
 
 use crate::boundary::{PositionI48F16, Sample};
+use crate::error::ConfigError;
 use crate::fixed::SignalI16F16;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// How raw samples are turned into the signals the model is identified on.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,6 +70,30 @@ impl Conditioning {
                 st.prev_u = sample.u;
                 st.primed = true;
                 out
+            }
+        }
+    }
+}
+
+/// Words: the variant's index (`None` 0 … `DifferencedOutput` 3).
+impl Words for Conditioning {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        w.word(match self {
+            Self::None => 0,
+            Self::CentredOnReference => 1,
+            Self::Differenced => 2,
+            Self::DifferencedOutput => 3,
+        })
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        match r.word() {
+            0 => Self::None,
+            1 => Self::CentredOnReference,
+            2 => Self::Differenced,
+            3 => Self::DifferencedOutput,
+            _ => {
+                r.fail();
+                Self::None
             }
         }
     }

@@ -122,6 +122,13 @@ pub enum ConfigError {
     SupervisorLimit(f64),
     /// Input-map compensation: range not finite / not positive, or the map is not increasing.
     CompensationMap(f64),
+    /// Configuration words ([`crate::words`]): word `at` is missing, is not a valid value of its
+    /// field, or the value fails the check its `…Design::build` makes; also a buffer too short
+    /// to write them into, or words left over after the configuration.
+    Words {
+        /// Index of the offending word.
+        at: usize,
+    },
 }
 
 impl fmt::Display for ConfigError {
@@ -215,6 +222,10 @@ impl fmt::Display for ConfigError {
             Self::CompensationMap(v) => write!(
                 f,
                 "compensation map = {v}: the range must be finite and > 0 and the map increasing"
+            ),
+            Self::Words { at } => write!(
+                f,
+                "configuration words: word {at} is missing, invalid or fails its check"
             ),
         }
     }

@@ -45,6 +45,58 @@ pub const SIGNAL_FRAC_BITS: u32 = 16;
 /// Fraction bits of [`ParamI12F20`].
 pub const PARAM_FRAC_BITS: u32 = 20;
 
+/// `trunc(fl(x·2^frac ± ½))` (the sign of x; `fl` rounding to nearest, ties to even, as `f64`
+/// arithmetic does) for a finite `x` with |x·2^frac| ≤ 2³¹, from the bits of `x` with integer
+/// operations only: `|x·2^frac| + ½` is formed exactly as an integer over a power of two, rounded
+/// to 53 significant bits, then truncated. Equal to the `f64` expression for every such x
+/// (`from_f64_equals_the_float_expression`).
+fn round_half_away_f64(x: f64, frac: u32) -> i64 {
+    let bits = x.to_bits();
+    let negative = bits >> 63 != 0;
+    let biased = ((bits >> 52) & 0x7ff) as i64;
+    let fraction = bits & ((1 << 52) - 1);
+    // |x| = m · 2^e: normal m = 2^52 + fraction, e = biased − 1075; subnormal e = −1074.
+    let (m, e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1 << 52), biased - 1075)
+    };
+    if m == 0 {
+        return 0;
+    }
+    // |x·2^frac| = m · 2^−s. For a normal m ≥ 2^52 and |x·2^frac| ≤ 2^31, s ≥ 21; a subnormal
+    // x gives s > 1000.
+    let s = -(e + i64::from(frac));
+    if s <= 0 {
+        // Only beyond the documented range (|x·2^frac| ≥ 2^52): saturate, as `as i64` would.
+        return if negative { i64::MIN } else { i64::MAX };
+    }
+    if s > 60 {
+        // |x·2^frac| < 2^53 · 2^−61 = 2^−8: |x·2^frac| + ½ rounds to below 1.
+        return 0;
+    }
+    // |x·2^frac| + ½ = n · 2^−s exactly, n < 2^53 + 2^59.
+    let n = m + (1 << (s - 1));
+    let len = 64 - n.leading_zeros();
+    let n = if len > 53 {
+        // n to 53 significant bits, to nearest, ties to even.
+        let d = len - 53;
+        let q = n >> d;
+        let rem = n & ((1 << d) - 1);
+        let half = 1 << (d - 1);
+        let q = if rem > half || (rem == half && q & 1 == 1) {
+            q + 1
+        } else {
+            q
+        };
+        q << d
+    } else {
+        n
+    };
+    let magnitude = (n >> s) as i64; // ≤ 2^31: fits
+    if negative { -magnitude } else { magnitude }
+}
+
 macro_rules! fixed_newtype {
     ($t:ident, $frac:expr, $what:literal) => {
         impl $t {
@@ -70,18 +122,26 @@ macro_rules! fixed_newtype {
                 Self(units.saturating_mul(1 << $frac))
             }
 
-            /// From `f64`, rounded to the nearest step.
+            /// From `f64`, rounded to the nearest step: `x·2^frac ± ½` truncated, as if in `f64`
+            /// (half away from zero; the `f64` addition itself rounds, so the one value below ½ a
+            /// step that is closest to it, ½ − 2⁻⁵⁴ steps, rounds up). Computed from the bits of
+            /// `x` with integer operations only (`round_half_away_f64`), so that a core without
+            /// a double-precision FPU links no soft-float arithmetic for it.
             ///
             /// # Errors
             /// [`BoundaryError::NotFinite`] for NaN/±∞, [`BoundaryError::OutOfRange`] outside the format.
             pub fn from_f64(x: f64) -> Result<Self, BoundaryError> {
+                /// The smallest accepted `x`: `i32::MIN` steps (exact).
+                #[allow(clippy::float_arithmetic)] // evaluated when compiling
+                const LO: f64 = i32::MIN as f64 / (1u64 << $frac) as f64;
+                /// The largest accepted `x`: `i32::MAX` steps (exact).
+                #[allow(clippy::float_arithmetic)] // evaluated when compiling
+                const HI: f64 = i32::MAX as f64 / (1u64 << $frac) as f64;
                 if !x.is_finite() {
                     return Err(BoundaryError::NotFinite { quantity: $what });
                 }
-                let scaled = x * (1u64 << $frac) as f64;
-                let lo = i32::MIN as f64;
-                let hi = i32::MAX as f64;
-                if !(lo..=hi).contains(&scaled) {
+                // x·2^frac is exact for every x in range, so the range is checked on x itself.
+                if !(LO..=HI).contains(&x) {
                     let lim = (1u64 << (31 - $frac)) as f64;
                     return Err(BoundaryError::OutOfRange {
                         quantity: $what,
@@ -90,20 +150,22 @@ macro_rules! fixed_newtype {
                         max: lim,
                     });
                 }
-                // Round half away from zero without `f64::round` (not in core).
-                let r = if scaled >= 0.0 {
-                    scaled + 0.5
-                } else {
-                    scaled - 0.5
-                };
+                let r = round_half_away_f64(x, $frac);
                 Ok(Self(
-                    (r as i64).clamp(i32::MIN as i64, i32::MAX as i64) as i32
+                    r.max(i64::from(i32::MIN)).min(i64::from(i32::MAX)) as i32
                 ))
             }
 
             /// To `f64` (exact).
             pub fn to_f64(self) -> f64 {
                 f64::from(self.0) / (1u64 << $frac) as f64
+            }
+
+            /// To `f32`: the same value as `to_f64() as f32` (one rounding of the raw integer to
+            /// 24 bits, then an exact division by a power of two), without `f64` arithmetic.
+            #[allow(clippy::float_arithmetic)]
+            pub fn to_f32(self) -> f32 {
+                self.0 as f32 / (1u64 << $frac) as f32
             }
 
             /// Saturating sum.
@@ -180,6 +242,127 @@ pub const fn sat_i32(x: i64, saturated: &mut bool) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The former `from_f64`: `x·2^frac ± ½` in `f64`, truncated.
+    #[allow(clippy::float_arithmetic)]
+    fn from_f64_float<const FRAC: u32>(x: f64) -> Result<i32, ()> {
+        let scaled = x * (1u64 << FRAC) as f64;
+        if !x.is_finite() || !(i32::MIN as f64..=i32::MAX as f64).contains(&scaled) {
+            return Err(());
+        }
+        let r = if scaled >= 0.0 {
+            scaled + 0.5
+        } else {
+            scaled - 0.5
+        };
+        Ok((r as i64).clamp(i32::MIN as i64, i32::MAX as i64) as i32)
+    }
+
+    #[test]
+    #[allow(clippy::float_arithmetic)]
+    fn from_f64_equals_the_float_expression() {
+        let check = |x: f64| {
+            let s = SignalI16F16::from_f64(x)
+                .map(SignalI16F16::raw)
+                .map_err(|_| ());
+            assert_eq!(
+                s,
+                from_f64_float::<16>(x),
+                "I16F16 {x:e} ({:#x})",
+                x.to_bits()
+            );
+            let p = ParamI12F20::from_f64(x)
+                .map(ParamI12F20::raw)
+                .map_err(|_| ());
+            assert_eq!(
+                p,
+                from_f64_float::<20>(x),
+                "I12F20 {x:e} ({:#x})",
+                x.to_bits()
+            );
+        };
+        // Edges: zeros, subnormals, the range bounds and their neighbours, infinities, NaN, and
+        // ½ − 2⁻⁵⁴ (the value the f64 addition rounds up to a whole step).
+        let edges = [
+            0.0,
+            f64::from_bits(1),
+            f64::MIN_POSITIVE,
+            32_768.0,
+            2_048.0,
+            32_767.999_984_741_21,
+            2_047.999_999_046_325_7,
+            f64::INFINITY,
+            f64::NAN,
+            f64::MAX,
+            0.5,
+            0.499_999_999_999_999_94,
+            0.499_999_999_999_999_94 / 65_536.0,
+            0.499_999_999_999_999_94 / 1_048_576.0,
+        ];
+        for x in edges {
+            for y in [
+                x,
+                f64::from_bits(x.to_bits() + 1),
+                f64::from_bits(x.to_bits().wrapping_sub(1)),
+            ] {
+                check(y);
+                check(-y);
+            }
+        }
+        let mut z = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            z ^= z << 13;
+            z ^= z >> 7;
+            z ^= z << 17;
+            z
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            // Random bit patterns (every exponent), random values in range, and half steps
+            // (k + ½) · 2^−frac and just below whole steps, nudged by a few ulps.
+            check(f64::from_bits(r));
+            check((r >> 11) as f64 / (1u64 << 53) as f64 * 65_536.0 - 32_768.0);
+            let k = f64::from(r as i32 >> 4);
+            for frac in [16, 20] {
+                let step = (1u64 << frac) as f64;
+                for v in [(k + 0.5) / step, k / step] {
+                    for d in [-2i64, -1, 0, 1, 2] {
+                        check(f64::from_bits((v.to_bits() as i64 + d) as u64));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn to_f32_is_to_f64_rounded_once() {
+        // Edges, values that need rounding (more than 24 significant bits, ties included) and a
+        // pseudo-random sweep of raw values.
+        let edges = [
+            0,
+            1,
+            -1,
+            i32::MAX,
+            i32::MIN,
+            (1 << 24) + 1,
+            (1 << 24) + 3,
+            -(1 << 25) - 2,
+        ];
+        let mut x = 0x1234_5678_u32;
+        let sweep = core::iter::repeat_with(move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as i32
+        });
+        let raws = edges.into_iter().chain(sweep.take(100_000));
+        for raw in raws {
+            let p = ParamI12F20::from_raw(raw);
+            assert_eq!(p.to_f32().to_bits(), (p.to_f64() as f32).to_bits(), "{raw}");
+            let s = SignalI16F16::from_raw(raw);
+            assert_eq!(s.to_f32().to_bits(), (s.to_f64() as f32).to_bits(), "{raw}");
+        }
+    }
 
     #[test]
     fn conversions_reject_bad_values() {

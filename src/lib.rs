@@ -35,6 +35,7 @@ pub mod stability;
 pub mod status;
 pub mod step;
 pub mod wide;
+pub mod words;
 
 pub use boundary::{PositionI48F16, Sample, Scaling};
 pub use error::{BoundaryError, ConfigError};

@@ -23,6 +23,7 @@ use crate::regressor::{History, MAX_DELAY};
 use crate::rls::{RlsConfig, RlsDesign, RlsState};
 use crate::stability::{PoleRadius, project_denominator};
 use crate::status::Status;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Which linear structure is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -289,6 +290,78 @@ impl<const N: usize> Estimator<N> for LinearConfig<N> {
 
     fn set_enabled(&self, state: &mut LinearState<N>, enabled: bool) {
         state.set_enabled(enabled);
+    }
+}
+
+/// Words: the variant's index (`Arx` 0, `OutputErrorPseudoLinear` 1, `OutputErrorPredictionError`
+/// 2).
+impl Words for Structure {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        w.word(match self {
+            Self::Arx => 0,
+            Self::OutputErrorPseudoLinear => 1,
+            Self::OutputErrorPredictionError => 2,
+        })
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        match r.word() {
+            0 => Self::Arx,
+            1 => Self::OutputErrorPseudoLinear,
+            2 => Self::OutputErrorPredictionError,
+            _ => {
+                r.fail();
+                Self::Arx
+            }
+        }
+    }
+}
+
+impl<const N: usize> LinearDesign<N> {
+    /// Builds the design and appends its configuration words ([`crate::words`]): structure, na,
+    /// nk, θ₀ (raw I12F20), the pole radius if any, then the RLS design.
+    ///
+    /// # Errors
+    /// [`Self::build`]'s errors, or [`ConfigError::Words`] when `w`'s buffer is full.
+    pub fn put_words(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        let c = self.build()?;
+        c.structure.put(w)?;
+        c.na.put(w)?;
+        c.nk.put(w)?;
+        c.theta0.put(w)?;
+        c.radius.put(w)?;
+        self.rls.put(w)
+    }
+}
+
+impl<const N: usize> LinearConfig<N> {
+    /// Reads the words of [`LinearDesign::put_words`] with [`LinearDesign::build`]'s checks
+    /// (orders, delay, a pole radius for OE and a stable θ₀ inside it) and builds the RLS design.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
+    pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
+        let structure = Structure::take(r);
+        let na = usize::take(r);
+        r.check(na >= 1 && na < N);
+        let nk = usize::take(r);
+        r.check(nk <= MAX_DELAY);
+        let theta0 = <[ParamI12F20; N]>::take(r);
+        let radius = <Option<PoleRadius> as Words>::take(r);
+        r.check(match (radius, theta0.get(..na)) {
+            (Some(radius), Some(den)) => na <= 2 && radius.contains(den),
+            (None, _) => structure == Structure::Arx,
+            (Some(_), None) => false,
+        });
+        let rls = RlsDesign::take(r);
+        r.status()?;
+        Ok(Self {
+            structure,
+            na,
+            nk,
+            theta0,
+            rls: rls.build()?,
+            radius,
+        })
     }
 }
 

@@ -30,6 +30,7 @@ use crate::linear::{Estimate, LinearDesign, Structure};
 use crate::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
 use crate::rls::{AntiWindup, RlsDesign};
 use crate::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity).
 pub const VELOCITY_N: usize = 2;
@@ -69,7 +70,7 @@ pub fn velocity_identifier(
 }
 
 /// Validated configuration of the loop.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LoopConfig {
     controller: ScheduledConfig,
     velocity: IdentifierConfig<VELOCITY_N>,
@@ -119,9 +120,77 @@ impl LoopDesign {
             decimator: DecimatorConfig::HALF_BAND_23,
         })
     }
+
+    /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
+    /// velocity identifier's ([`IdentifierDesign::put_words`]), the Wiener model's if any (a
+    /// `bool`, then [`NonlinearDesign::put_words`]), then the controller's ([`ScheduledConfig`];
+    /// last, so that [`LoopConfig::from_words`] can decode the largest part straight into its
+    /// result instead of into a copy on the stack). [`LoopConfig::from_words`] reads them back into the
+    /// configuration [`Self::build`] gives. Returns the number of words written.
+    ///
+    /// # Errors
+    /// The first part's [`ConfigError`], or [`ConfigError::Words`] when `out` is too short
+    /// ([`LOOP_WORDS_MAX`] always suffices).
+    pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
+        let mut w = WordWriter::new(out);
+        self.velocity.put_words(&mut w)?;
+        self.wiener.is_some().put(&mut w)?;
+        if let Some(wiener) = &self.wiener {
+            wiener.put_words(&mut w)?;
+        }
+        self.controller.build()?.put(&mut w)?;
+        Ok(w.len())
+    }
 }
 
+/// A buffer size that holds the words of any [`LoopDesign`]: at most 181 (25 for the velocity
+/// identifier with a stuck-sensor check and a pole radius, 22 for the Wiener model, 134 for the
+/// controller with both input maps).
+pub const LOOP_WORDS_MAX: usize = 192;
+
 impl LoopConfig {
+    /// The configuration from the words of [`LoopDesign::to_words`], computed on the host: every
+    /// field checked as the parts' `build` functions check them (integer checks; only the two RLS
+    /// designs are built from their `f64` settings, see [`crate::words`]). The decimator is the
+    /// loop's fixed half-band filter.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] at the first word that is missing, invalid or fails its check (or
+    /// the first word left over), or an RLS design's error.
+    pub fn from_words(words: &[u32]) -> Result<Self, ConfigError> {
+        let mut slot = None;
+        Self::from_words_into(words, &mut slot)?;
+        slot.ok_or(ConfigError::Words { at: 0 })
+    }
+
+    /// [`Self::from_words`] into `slot` (`None` on an error), for a caller with static storage
+    /// for the configuration: the controller's part, the largest, is decoded straight into it
+    /// rather than into a copy on the stack.
+    ///
+    /// # Errors
+    /// As [`Self::from_words`].
+    pub fn from_words_into(words: &[u32], slot: &mut Option<Self>) -> Result<(), ConfigError> {
+        *slot = None;
+        let mut r = WordReader::new(words);
+        let velocity = IdentifierConfig::take_words(&mut r)?;
+        let wiener = match bool::take(&mut r) {
+            true => Some(NonlinearConfig::take_words(&mut r)?),
+            false => None,
+        };
+        // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
+        let _config = slot.insert(Self {
+            controller: ScheduledConfig::take(&mut r),
+            velocity,
+            wiener,
+            decimator: DecimatorConfig::HALF_BAND_23,
+        });
+        let done = r.finish();
+        if done.is_err() {
+            *slot = None;
+        }
+        done
+    }
+
     /// A fresh state.
     pub fn new_state(&self) -> LoopState {
         LoopState {

@@ -14,6 +14,7 @@ use crate::error::ConfigError;
 use crate::fixed::ParamI12F20;
 use crate::rls::RlsState;
 use crate::status::Status;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Radius ρ of the allowed pole region, I12F20.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,6 +83,19 @@ pub fn project_denominator<const N: usize>(
     }
     st.set_theta(*theta_old);
     Status::PROJECTED
+}
+
+/// Words: ρ raw I12F20. Checked: ρ ∈ [½, 1] (a margin in [0, ½), as
+/// [`PoleRadius::from_margin`] makes it).
+impl Words for PoleRadius {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.0.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let rho = ParamI12F20::take(r);
+        r.check((1 << 19..=1 << 20).contains(&rho.raw()));
+        Self(rho)
+    }
 }
 
 #[cfg(test)]

@@ -22,6 +22,7 @@ use crate::estimator::{Estimator, EstimatorDesign};
 use crate::fixed::{ParamI12F20, SignalI16F16};
 use crate::linear::{LinearConfig, LinearDesign, LinearState};
 use crate::status::Status;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Stuck-sensor detection: y unchanged for `samples` consecutive samples while |u| ≥ `min_drive`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -227,6 +228,53 @@ pub fn reject<const N: usize, M: Estimator<N>>(
         eps: SignalI16F16::ZERO,
         theta: *config.model.theta(&state.model),
         status: Status::INPUT_REJECTED,
+    }
+}
+
+/// Words: samples, least |u| (raw I16F16). Checked as [`IdentifierDesign::build`] makes them:
+/// at least 2 samples, a drive in (0, 2³¹).
+impl Words for StuckSensor {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.samples.put(w)?;
+        self.min_drive_i16f16.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let samples = u32::take(r);
+        r.check(samples >= 2);
+        let min_drive_i16f16 = u32::take(r);
+        r.check(min_drive_i16f16 > 0 && min_drive_i16f16 <= i32::MAX as u32);
+        Self {
+            samples,
+            min_drive_i16f16,
+        }
+    }
+}
+
+impl<const N: usize> IdentifierDesign<N, LinearDesign<N>> {
+    /// Builds the design and appends its configuration words ([`crate::words`]): conditioning,
+    /// the stuck-sensor check if any, then the model's ([`LinearDesign::put_words`]).
+    ///
+    /// # Errors
+    /// [`Self::build`]'s errors, or [`ConfigError::Words`] when `w`'s buffer is full.
+    pub fn put_words(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        let c = self.build()?;
+        c.conditioning.put(w)?;
+        c.stuck.put(w)?;
+        self.model.put_words(w)
+    }
+}
+
+impl<const N: usize> IdentifierConfig<N, LinearConfig<N>> {
+    /// Reads the words of [`IdentifierDesign::put_words`], checked.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
+    pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
+        Ok(Self {
+            conditioning: Conditioning::take(r),
+            stuck: <Option<StuckSensor> as Words>::take(r),
+            model: LinearConfig::take_words(r)?,
+        })
     }
 }
 

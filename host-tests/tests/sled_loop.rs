@@ -132,3 +132,43 @@ fn shadow_mode_identifies_from_the_applied_drive() {
     }
     assert!(differ > 0);
 }
+
+/// The configuration words (`sledid::words`) of a design with every optional part: both input
+/// maps, a stuck-sensor check, a pole radius on the velocity model, the Wiener model. The largest
+/// word count (181, within `LOOP_WORDS_MAX`), decoded into the configuration `build` gives, and
+/// refused by a buffer one word short.
+#[test]
+fn configuration_words_of_a_full_design_round_trip() {
+    use sledid::ConfigError;
+    use sledid::sled_loop::{LOOP_WORDS_MAX, LoopConfig, LoopDesign};
+    use sledid::step::StuckSensorDesign;
+    use sledid_host::control_eval::physical_model;
+    use sledid_host::twin::PlantParams;
+
+    let mut controller = scheduled_design(&TwinParams::default()).expect("scheduled design");
+    assert!(
+        controller.compensation.is_some(),
+        "the twin's design compensates friction"
+    );
+    controller.output_map = controller.compensation;
+    let mut velocity = identifier_design(physical_model(&PlantParams::default()));
+    velocity.stuck_sensor = Some(StuckSensorDesign {
+        samples: 50,
+        min_drive: 0.05,
+    });
+    velocity.model.stability_margin = Some(0.0);
+    let design = LoopDesign {
+        controller,
+        velocity,
+        wiener: Some(wiener()),
+    };
+    let built = design.build().expect("the design builds");
+    let mut buf = [0u32; LOOP_WORDS_MAX];
+    let n = design.to_words(&mut buf).expect("words");
+    assert_eq!(n, 181);
+    assert_eq!(LoopConfig::from_words(&buf[..n]), Ok(built));
+    assert_eq!(
+        design.to_words(&mut buf[..n - 1]),
+        Err(ConfigError::Words { at: n - 1 })
+    );
+}

@@ -3,7 +3,10 @@
 //! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
 //! ([`sledid::sled_loop::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
 //! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
-//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`]),
+//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`],
+//! decoded at start-up from configuration words the host computed from its design
+//! (`src/bin/firmware/loop_words.rs`, [`sledid::words`]: of the `f64` design only the two RLS
+//! settings are built on the target),
 //! folds every output into a checksum and pushes a telemetry record into a fixed-capacity SPSC
 //! queue. The main loop drains the queue, counts the records, logs a few with defmt (over
 //! semihosting), and runs the controller's slow-rate gain redesign (f32) whenever the handler asks
@@ -41,14 +44,9 @@
 #[path = "firmware/config.rs"]
 mod fw_config;
 
-/// The embedded recording (layout: [`fw_config`]'s module doc).
+/// The embedded recording: [`fw_config::FIXTURE_SAMPLES`] delta-encoded records (layout:
+/// [`fw_config::recording`]; the host test checks the count).
 static FIXTURE: &[u8] = include_bytes!("../../fixtures/emps_excerpt.bin");
-
-/// The fixture holds exactly [`fw_config::FIXTURE_SAMPLES`] records (checked when compiling).
-const _: () = assert!(
-    include_bytes!("../../fixtures/emps_excerpt.bin").len()
-        == fw_config::FIXTURE_SAMPLES * fw_config::RECORD_BYTES
-);
 
 #[cfg(target_os = "none")]
 mod target {
@@ -61,10 +59,11 @@ mod target {
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
     use sledid::control::Redesign;
+    use sledid::sled_loop::LoopConfig;
 
     use super::FIXTURE;
     use super::fw_config::{
-        self, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
+        self, Cursor, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
         U_FULL_SCALE_V,
     };
 
@@ -140,9 +139,9 @@ mod target {
     /// Everything the SysTick handler owns: the run, the read position and the queue's producer.
     struct Ticker {
         /// The loop and its checksum.
-        run: Run,
-        /// Index of the next record.
-        next: usize,
+        run: FwRun,
+        /// The read position in the recording (index of the next record).
+        cursor: Cursor,
         /// Telemetry out.
         producer: Producer<'static, Telemetry>,
         /// Records dropped on a full queue.
@@ -152,12 +151,13 @@ mod target {
     impl Ticker {
         /// One sample period: the next record through the loop.
         fn tick(&mut self) -> Tick {
-            let Some(sample) = fw_config::record(FIXTURE, self.next) else {
+            let index = self.cursor.index();
+            let Some(sample) = self.cursor.next(FIXTURE) else {
                 return Tick::Idle;
             };
             let out = self.run.step(&sample);
             let record = Telemetry {
-                index: self.next as u32,
+                index: index as u32,
                 u_raw: out.u.raw(),
                 region: out.region.index(),
                 control_bits: out.control.bits(),
@@ -168,8 +168,7 @@ mod target {
             if self.producer.enqueue(record).is_err() {
                 self.dropped = self.dropped.saturating_add(1);
             }
-            self.next = self.next.saturating_add(1);
-            if self.next == FIXTURE_SAMPLES {
+            if self.cursor.index() == FIXTURE_SAMPLES {
                 Tick::Finished(Finished {
                     summary: self.run.summary(),
                     dropped: self.dropped,
@@ -291,35 +290,49 @@ mod target {
         (bottom, top)
     }
 
-    /// Builds the run into `slot` (`None` if the design does not build). Out of line, so that
-    /// the build's temporaries (the design in f64, the configuration before it is moved into
-    /// place) live in a frame that is gone before SysTick starts.
+    /// The run the handler steps: its configuration borrowed from [`install_config`]'s storage.
+    type FwRun = Run<&'static mut LoopConfig>;
+
+    /// Decodes the configuration words into their static storage, once (`None` if they do not
+    /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (a
+    /// static `Option` would start as a non-zero `None`, in `.data`, and take its size twice: in
+    /// RAM and in flash); it starts empty and the configuration is decoded into it, so that the
+    /// frame holds one copy at most. Out of line, so that the decoding's temporaries are gone
+    /// before [`install`] runs and SysTick starts.
+    #[inline(never)]
+    fn install_config() -> Option<&'static mut LoopConfig> {
+        let slot = cortex_m::singleton!(CONFIG: Option<LoopConfig> = None)?;
+        fw_config::config_into(slot).ok()?;
+        slot.as_mut()
+    }
+
+    /// Builds the ticker (the run state on `config`, the read position, the producer) into its
+    /// static storage (`.bss`, as [`install_config`]'s), once: `None` on a second call. Called
+    /// after [`install_config`] has returned, so that their frames do not add up.
     #[inline(never)]
     fn install(
-        slot: &'static mut Option<Ticker>,
+        config: &'static mut LoopConfig,
         producer: Producer<'static, Telemetry>,
     ) -> Option<&'static mut Ticker> {
-        let config = fw_config::design().build().ok()?;
+        let slot = cortex_m::singleton!(TICKER: Option<Ticker> = None)?;
         Some(slot.insert(Ticker {
             run: Run::from_config(config),
-            next: 0,
+            cursor: Cursor::new(),
             producer,
             dropped: 0,
         }))
     }
 
-    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. `slot`
-    /// is where the ticker (the run state) lives: the handler only gets a reference to it.
-    fn run(
-        queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>,
-        slot: &'static mut Option<Ticker>,
-    ) -> bool {
+    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. The
+    /// ticker (the run state) lives in [`install`]'s static storage: the handler only gets a
+    /// reference to it.
+    fn run(queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>) -> bool {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
         let (producer, mut consumer) = queue.split();
-        let Some(ticker) = install(slot, producer) else {
-            defmt::println!("sledid-fw: the design does not build");
+        let Some(ticker) = install_config().and_then(|config| install(config, producer)) else {
+            defmt::println!("sledid-fw: the configuration words do not decode");
             return false;
         };
         defmt::println!(
@@ -348,7 +361,7 @@ mod target {
             drain(&mut consumer, &mut received);
             if let Some(ticker) = critical_section::with(|cs| REDESIGN.borrow(cs).take()) {
                 let outcome = ticker.run.redesign();
-                let at = ticker.next;
+                let at = ticker.cursor.index();
                 critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
                 redesigns = redesigns.saturating_add(1);
                 if redesigns <= 3 {
@@ -405,12 +418,11 @@ mod target {
     #[entry]
     fn main() -> ! {
         static mut QUEUE: Queue<Telemetry, QUEUE_SLOTS> = Queue::new();
-        static mut TICKER: Option<Ticker> = None;
         // Nothing calls the bench exports; referencing them keeps the linker from dropping them.
         #[cfg(feature = "fw-bench")]
         core::hint::black_box(&bench::BENCH_EXPORTS);
         paint_stack();
-        let ok = run(QUEUE, TICKER);
+        let ok = run(QUEUE);
         debug::exit(if ok {
             debug::EXIT_SUCCESS
         } else {
@@ -446,26 +458,45 @@ mod target {
         use sledid::{Sample, Status};
 
         use super::super::FIXTURE;
-        use super::fw_config::{self, FIXTURE_SAMPLES, Run};
+        use super::fw_config::{self, Cursor, FIXTURE_SAMPLES, Run};
 
         /// The run `count_insns.py` measures (independent of the firmware's own).
         static BENCH: Mutex<RefCell<Option<Run>>> = Mutex::new(RefCell::new(None));
+        /// The bench's read position in the recording.
+        static BENCH_CURSOR: Mutex<RefCell<Cursor>> = Mutex::new(RefCell::new(Cursor::new()));
 
         /// `--init`: a fresh run for [`sledid_fw_bench_step`].
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
-            critical_section::with(|cs| BENCH.borrow(cs).replace(Run::new().ok()));
+            let run = fw_config::config().ok().map(Run::from_config);
+            critical_section::with(|cs| BENCH.borrow(cs).replace(run));
+        }
+
+        /// Record `index`: the next one of the bench's cursor when the calls go in order (as
+        /// `count_insns.py --args i` makes them), else decoded from the start.
+        #[inline(never)]
+        fn bench_record(cursor: &mut Cursor, index: usize) -> Option<Sample> {
+            if cursor.index() != index {
+                *cursor = Cursor::new();
+                while cursor.index() < index {
+                    cursor.next(FIXTURE)?;
+                }
+            }
+            cursor.next(FIXTURE)
         }
 
         /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
         /// run was not initialised).
         #[inline(always)]
         fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
-            let sample = fw_config::record(FIXTURE, i as usize % FIXTURE_SAMPLES);
-            critical_section::with(|cs| match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
-                (Some(run), Some(sample)) => f(run, &sample),
-                _ => 0,
+            critical_section::with(|cs| {
+                let index = i as usize % FIXTURE_SAMPLES;
+                let sample = bench_record(&mut BENCH_CURSOR.borrow_ref_mut(cs), index);
+                match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
+                    (Some(run), Some(sample)) => f(run, &sample),
+                    _ => 0,
+                }
             })
         }
 
@@ -538,6 +569,19 @@ mod target {
 fn main() {
     use fw_config::{FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, U_FULL_SCALE_V};
     println!("sledid-fw (host build): {:#?}", fw_config::design());
+    // What the firmware decodes instead of building the design from f64.
+    let words = fw_config::LOOP_WORDS.len();
+    if fw_config::config() == fw_config::design().build() {
+        println!(
+            "configuration words (src/bin/firmware/loop_words.rs): {words}, equal to the design"
+        );
+    } else {
+        eprintln!(
+            "sledid-fw: the configuration words ({words}) are stale: regenerate them \
+             (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words)"
+        );
+        std::process::exit(1);
+    }
     println!(
         "recording: {FIXTURE_SAMPLES} EMPS samples, quantum {QUANTUM_M} m, u full scale {U_FULL_SCALE_V} V; \
          SysTick period {SAMPLE_PERIOD_NS} ns"

@@ -33,6 +33,7 @@
 use super::ConfigError;
 use crate::fixed::{ParamI12F20, SignalI16F16, shr_round_i64};
 use crate::neuron::Neuron;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Grid intervals of the inverse table (2^5).
 pub const MAP_INTERVALS_LOG2: u32 = 5;
@@ -187,6 +188,33 @@ impl InverseInputMap {
     /// The grid: (v₀, step) in I16F16 raw, and the table.
     pub fn grid(&self) -> (i32, i32, &[i32; MAP_ENTRIES]) {
         (self.v0, 1 << self.shift, &self.table)
+    }
+}
+
+/// Words: the neuron (w, a, c raw I12F20), v₀, s, the table. Checked as
+/// [`InverseInputMap::from_neuron`] builds it: s ≤ 26 (a range below 16,384 full scales),
+/// `v₀ = −2^(s + K − 1)`, entries non-decreasing.
+impl Words for InverseInputMap {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        [self.neuron.w(), self.neuron.a(), self.neuron.c()].put(w)?;
+        self.v0.put(w)?;
+        self.shift.put(w)?;
+        self.table.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let [nw, na, nc] = <[ParamI12F20; 3]>::take(r);
+        let v0 = i32::take(r);
+        let shift = u32::take(r);
+        // `&&` keeps the shift in range before it is used.
+        r.check(shift <= 26 && i64::from(v0) == -(1i64 << (shift + MAP_INTERVALS_LOG2 - 1)));
+        let table = <[i32; MAP_ENTRIES]>::take(r);
+        r.check(table.windows(2).all(|p| p.first() <= p.get(1)));
+        Self {
+            neuron: Neuron::new(nw, na, nc),
+            v0,
+            shift,
+            table,
+        }
     }
 }
 

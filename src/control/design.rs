@@ -35,6 +35,7 @@
 
 use super::{ConfigError, Gain};
 use crate::fixed::ParamI12F20;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Closed-loop pole choices (z-plane radii, real).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -194,8 +195,8 @@ pub fn reduce(
     na: usize,
     limits: &SupervisorDesign,
 ) -> Result<VelocityModel, Rejection> {
-    let f = |i: usize| theta.get(i).map(|p| p.to_f64() as f32);
-    let b_sum: f32 = theta.iter().skip(na).map(|p| p.to_f64() as f32).sum();
+    let f = |i: usize| theta.get(i).map(|p| p.to_f32());
+    let b_sum: f32 = theta.iter().skip(na).map(|p| p.to_f32()).sum();
     if theta.len() <= na {
         return Err(Rejection::ModelOrder);
     }
@@ -257,6 +258,89 @@ pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelG
         kd2_settle: g(bkd_settle / 2.0)?,
         ki_settle: g(bki_settle.max(0.0))?,
     })
+}
+
+/// Words: p_s, p_z (`f64` bits), feedforward. Checked by [`PlacementDesign::validate`].
+impl Words for PlacementDesign {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.seek_pole.put(w)?;
+        self.settle_pole.put(w)?;
+        self.feedforward.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let p = Self {
+            seek_pole: f64::take(r),
+            settle_pole: f64::take(r),
+            feedforward: bool::take(r),
+        };
+        r.check(p.validate().is_ok());
+        p
+    }
+}
+
+/// Words: pole min/max, gain min/max, ε limit (`f64` bits), hold samples. Checked by
+/// [`SupervisorDesign::validate`].
+impl Words for SupervisorDesign {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        [
+            self.pole_min,
+            self.pole_max,
+            self.gain_min,
+            self.gain_max,
+            self.eps_limit_quanta,
+        ]
+        .put(w)?;
+        self.untrusted_hold_samples.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let [pole_min, pole_max, gain_min, gain_max, eps_limit_quanta] = <[f64; 5]>::take(r);
+        let s = Self {
+            pole_min,
+            pole_max,
+            gain_min,
+            gain_max,
+            eps_limit_quanta,
+            untrusted_hold_samples: u16::take(r),
+        };
+        r.check(s.validate().is_ok());
+        s
+    }
+}
+
+/// Words: the seven gains in declaration order.
+impl Words for ModelGains {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        [
+            self.kp_seek,
+            self.kd2_seek,
+            self.kv_ff,
+            self.ka_ff,
+            self.kp_settle,
+            self.kd2_settle,
+            self.ki_settle,
+        ]
+        .put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let [
+            kp_seek,
+            kd2_seek,
+            kv_ff,
+            ka_ff,
+            kp_settle,
+            kd2_settle,
+            ki_settle,
+        ] = <[Gain; 7]>::take(r);
+        Self {
+            kp_seek,
+            kd2_seek,
+            kv_ff,
+            ka_ff,
+            kp_settle,
+            kd2_settle,
+            ki_settle,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -119,6 +119,7 @@ pub use crate::error::ConfigError;
 use crate::fixed::{SignalI16F16, shr_round_i64};
 use crate::status::Status;
 use crate::wide::{mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Fraction bits of the I32F32 accumulator of the controller terms.
 pub const ACC_FRAC_BITS: u32 = 32;
@@ -326,6 +327,38 @@ pub fn mul_i64_u1f31(x: i64, c: u32) -> i64 {
     floor + ((lo_part >> 30) & 1) as i64 // round half up: stays within [floor, ceil]
 }
 
+/// Words: m, s. Checked: `s ≤ 62` and `m ≠ i32::MIN` (what [`Gain::from_f64`] produces).
+impl Words for Gain {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.m.put(w)?;
+        self.s.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let m = i32::take(r);
+        r.check(m != i32::MIN);
+        let s = u32::take(r);
+        r.check(s <= Self::MAX_SHIFT);
+        Self { m, s }
+    }
+}
+
+/// Largest I32F32 limit a `build` produces: `i32::MAX · 2¹⁶` (it must round into I16F16).
+pub(crate) const LIMIT_I32F32_MAX: i64 = (i32::MAX as i64) << 16;
+
+/// `x` limited to `[−limit, limit]`: `x.clamp(−limit, limit)` for every `limit ≥ 0` (the limits
+/// are built non-negative), without `clamp`'s panic for an empty range (a negative `limit` gives
+/// `limit`). Never panics, links no formatting code. `limit` must not be `i64::MIN`.
+#[inline(always)]
+pub(crate) fn clamp_sym_i64(x: i64, limit: i64) -> i64 {
+    x.max(limit.wrapping_neg()).min(limit)
+}
+
+/// [`clamp_sym_i64`] for `i32`.
+#[inline(always)]
+pub(crate) fn clamp_sym_i32(x: i32, limit: i32) -> i32 {
+    x.max(limit.wrapping_neg()).min(limit)
+}
+
 /// `round(x · 2³²)` for `0 ≤ x < 2¹⁵` (an I32F32 limit), at most `i32::MAX · 2¹⁶` so that it
 /// rounds into I16F16; `None` otherwise, NaN included.
 #[allow(clippy::float_arithmetic)] // design time, not the per-sample path
@@ -334,7 +367,7 @@ pub(crate) fn i32f32_from_f64(x: f64) -> Option<i64> {
         return None;
     }
     let raw = (x * 4_294_967_296.0 + 0.5) as i64; // ≤ 2^47
-    (raw <= i64::from(i32::MAX) << 16).then_some(raw)
+    (raw <= LIMIT_I32F32_MAX).then_some(raw)
 }
 
 /// A first-order smoothing pole `e^{−2π·f·Ts}` in U1F31, 0 for `f = 0` (off); `None` unless

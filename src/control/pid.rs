@@ -10,10 +10,14 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use super::{ConfigError, ControlFlags, ControlOutput, Gain, ONE_U1F31, mul_i64_u1f31};
+use super::{
+    ConfigError, ControlFlags, ControlOutput, Gain, LIMIT_I32F32_MAX, ONE_U1F31, clamp_sym_i64,
+    mul_i64_u1f31,
+};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{SignalI16F16, sat_i32, shr_round_i64};
 use crate::wide::mul_i32_u32_wide;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Longest moving sum of position differences in the derivative (history length).
 pub const MAX_DERIVATIVE_SAMPLES: u8 = 4;
@@ -345,7 +349,7 @@ impl PidConfig {
         let total = if state.enabled {
             let previous = state.integral_i32f32;
             let wanted = previous.saturating_add(self.ki_ts.apply(e));
-            let candidate = wanted.clamp(-i_max, i_max);
+            let candidate = clamp_sym_i64(wanted, i_max);
             flags.set_if(ControlFlags::INTEGRATOR_LIMITED, candidate != wanted);
             let unsaturated = pd.saturating_add(candidate);
             let winding = (unsaturated > u_max && candidate > previous)
@@ -360,14 +364,14 @@ impl PidConfig {
             flags.insert(ControlFlags::MANUAL);
             let manual = i64::from(state.manual_u.raw()) << 16; // I16F16 → I32F32, < 2^47
             let wanted = manual.saturating_sub(pd);
-            state.integral_i32f32 = wanted.clamp(-i_max, i_max);
+            state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
                 ControlFlags::TRACKING_LIMITED,
                 state.integral_i32f32 != wanted,
             );
             manual
         };
-        let clamped = total.clamp(-u_max, u_max);
+        let clamped = clamp_sym_i64(total, u_max);
         flags.set_if(ControlFlags::OUTPUT_SATURATED, clamped != total);
         // |clamped| ≤ u_max < 2^47: the narrowing cannot saturate.
         let u = SignalI16F16::from_raw(sat_i32(shr_round_i64(clamped, 16), &mut sat));
@@ -376,6 +380,73 @@ impl PidConfig {
     }
 }
 
+/// Words: 0 `Error`, 1 `Measurement`.
+impl Words for DerivativeOn {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        w.word(match self {
+            Self::Error => 0,
+            Self::Measurement => 1,
+        })
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let v = r.word();
+        r.check(v <= 1);
+        if v == 1 {
+            Self::Measurement
+        } else {
+            Self::Error
+        }
+    }
+}
+
+/// Words: kp, ki·Ts, kd, I_max, u_max, derivative_on, n, β, 1 − α (`prefilter` is `α ≠ 0`).
+/// Checked as [`PidDesign::build`] makes them: 0 ≤ I_max ≤ 2³¹·2¹⁶, u_max an I16F16 value in
+/// (0, 2³¹) shifted to I32F32, 1 ≤ n ≤ [`MAX_DERIVATIVE_SAMPLES`], β and 1 − α in U1F31 ≤ 1.
+impl Words for PidConfig {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.kp.put(w)?;
+        self.ki_ts.put(w)?;
+        self.kd.put(w)?;
+        self.integrator_limit_i32f32.put(w)?;
+        self.u_limit_i32f32.put(w)?;
+        self.derivative_on.put(w)?;
+        self.derivative_samples.put(w)?;
+        self.beta_u1f31.put(w)?;
+        self.one_minus_alpha_u1f31.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let kp = Gain::take(r);
+        let ki_ts = Gain::take(r);
+        let kd = Gain::take(r);
+        let integrator_limit_i32f32 = i64::take(r);
+        r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
+        let u_limit_i32f32 = i64::take(r);
+        r.check(
+            u_limit_i32f32 > 0
+                && u_limit_i32f32 <= LIMIT_I32F32_MAX
+                && u_limit_i32f32 & 0xffff == 0,
+        );
+        let derivative_on = DerivativeOn::take(r);
+        let derivative_samples = u8::take(r);
+        r.check((1..=MAX_DERIVATIVE_SAMPLES).contains(&derivative_samples));
+        let beta_u1f31 = u32::take(r);
+        r.check(beta_u1f31 <= ONE_U1F31);
+        let one_minus_alpha_u1f31 = u32::take(r);
+        r.check(one_minus_alpha_u1f31 <= ONE_U1F31);
+        Self {
+            kp,
+            ki_ts,
+            kd,
+            integrator_limit_i32f32,
+            u_limit_i32f32,
+            derivative_on,
+            derivative_samples,
+            beta_u1f31,
+            prefilter: one_minus_alpha_u1f31 != ONE_U1F31,
+            one_minus_alpha_u1f31,
+        }
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -25,6 +25,7 @@
 
 use super::ConfigError;
 use crate::fixed::SignalI16F16;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// The part of a step response the controller is in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -151,6 +152,47 @@ impl RegionSelector {
             Region::Settle => Region::Settle,
             Region::Hold if abs_e > self.hold_leave => Region::Settle,
             Region::Hold => Region::Hold,
+        }
+    }
+}
+
+/// Words: settle enter/leave, hold enter/leave, hold speed, moving (I16F16 raw, quanta). Checked:
+/// each in `[0, 2³¹)` and ordered as [`RegionDesign::build`] requires.
+impl Words for RegionSelector {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        [
+            self.settle_enter,
+            self.settle_leave,
+            self.hold_enter,
+            self.hold_leave,
+            self.hold_speed,
+            self.moving,
+        ]
+        .put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let mut v = [0u32; 6];
+        for x in &mut v {
+            *x = u32::take(r);
+            r.check(*x <= i32::MAX as u32);
+        }
+        let [
+            settle_enter,
+            settle_leave,
+            hold_enter,
+            hold_leave,
+            hold_speed,
+            moving,
+        ] = v;
+        r.check(settle_leave >= settle_enter && hold_leave >= hold_enter);
+        r.check(settle_enter > hold_leave);
+        Self {
+            settle_enter,
+            settle_leave,
+            hold_enter,
+            hold_leave,
+            hold_speed,
+            moving,
         }
     }
 }

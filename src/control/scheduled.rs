@@ -55,10 +55,13 @@ use super::design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, Ve
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::schedule::{Region, RegionDesign, RegionSelector};
 pub use super::supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
-use super::{ConfigError, ControlFlags, i32f32_from_f64};
+use super::{
+    ConfigError, ControlFlags, LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64,
+};
 use crate::boundary::PositionI48F16;
 use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::status::Status;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -455,7 +458,7 @@ impl ScheduledConfig {
         };
         if returning || (changed && previous != Region::Hold) {
             let wanted = state.last_v_i32f32.saturating_sub(terms);
-            state.integral_i32f32 = wanted.clamp(-i_max, i_max);
+            state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
                 ScheduledFlags::TRANSFER_LIMITED,
                 state.integral_i32f32 != wanted,
@@ -463,7 +466,7 @@ impl ScheduledConfig {
         } else if integrating {
             let prev = state.integral_i32f32;
             let wanted = prev.saturating_add(g.ki_settle.apply(self.settle_error(e)));
-            let candidate = wanted.clamp(-i_max, i_max);
+            let candidate = clamp_sym_i64(wanted, i_max);
             flags.set_if(ScheduledFlags::INTEGRATOR_LIMITED, candidate != wanted);
             let v = terms.saturating_add(candidate);
             let u_max = self.u_limit_i32f32;
@@ -484,7 +487,7 @@ impl ScheduledConfig {
             None => v_i16f16,
         };
         let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
-        let u = u_raw.clamp(-u_max, u_max);
+        let u = clamp_sym_i32(u_raw, u_max);
         flags.set_if(ScheduledFlags::OUTPUT_SATURATED, u != u_raw);
         flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
         state.last_v_i32f32 = v;
@@ -506,5 +509,59 @@ impl ScheduledConfig {
     /// h(u) of the compensation map (the identity without one), I16F16 raw.
     fn forward(&self, u: i32) -> i32 {
         self.compensation.as_ref().map_or(u, |m| m.forward(u))
+    }
+}
+
+/// Words: the baseline PID, the region selector, placement, supervisor, gains in use, fallback,
+/// I_max, hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's).
+/// Checked as [`ScheduledDesign::build`] makes them: `0 ≤ I_max ≤ 2³¹·2¹⁶`, |hold bias| ≤ u_max,
+/// `ε limit < 2³¹`, na ∈ {1, 2}, and every part's own checks.
+impl Words for ScheduledConfig {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.baseline.put(w)?;
+        self.selector.put(w)?;
+        self.placement.put(w)?;
+        self.supervisor.put(w)?;
+        self.gains.put(w)?;
+        self.fallback.put(w)?;
+        self.integrator_limit_i32f32.put(w)?;
+        self.hold_bias.put(w)?;
+        self.eps_limit.put(w)?;
+        self.na.put(w)?;
+        self.compensation.put(w)?;
+        self.output_map.put(w)
+    }
+    #[inline(never)] // written straight into the caller's result, not into a copy on its stack
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let baseline = PidConfig::take(r);
+        let selector = RegionSelector::take(r);
+        let placement = PlacementDesign::take(r);
+        let supervisor = SupervisorDesign::take(r);
+        let gains = ModelGains::take(r);
+        let fallback = bool::take(r);
+        let integrator_limit_i32f32 = i64::take(r);
+        r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
+        let u_max = baseline.u_limit().raw();
+        let hold_bias = i32::take(r);
+        r.check(hold_bias.unsigned_abs() <= u_max.unsigned_abs());
+        let eps_limit = u32::take(r);
+        r.check(eps_limit <= i32::MAX as u32);
+        let na = usize::take(r);
+        r.check((1..=2).contains(&na));
+        Self {
+            baseline,
+            selector,
+            placement,
+            supervisor,
+            gains,
+            fallback,
+            integrator_limit_i32f32,
+            u_limit_i32f32: i64::from(u_max) << 16,
+            hold_bias,
+            eps_limit,
+            na,
+            compensation: <Option<InverseInputMap> as Words>::take(r),
+            output_map: <Option<InverseInputMap> as Words>::take(r),
+        }
     }
 }

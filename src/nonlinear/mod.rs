@@ -46,6 +46,7 @@ use crate::rls::{RlsConfig, RlsDesign, RlsState};
 use crate::stability::{PoleRadius, project_denominator};
 use crate::status::Status;
 use crate::wide::mul_i32_wide;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// The expected ranges of the neurons' inputs, for the initial input weights (conditioned units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -304,5 +305,48 @@ impl<const N: usize> Estimator<N> for NonlinearConfig<N> {
 
     fn set_enabled(&self, state: &mut NonlinearState<N>, enabled: bool) {
         state.set_enabled(enabled);
+    }
+}
+
+impl<const N: usize> NonlinearDesign<N> {
+    /// Builds the design and appends its configuration words ([`crate::words`]): structure, θ₀
+    /// (raw I12F20), the pole radius, then the RLS design.
+    ///
+    /// # Errors
+    /// [`Self::build`]'s errors, or [`ConfigError::Words`] when `w`'s buffer is full.
+    pub fn put_words(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        let c = self.build()?;
+        c.structure.put(w)?;
+        c.theta0.put(w)?;
+        c.radius.put(w)?;
+        self.rls.put(w)
+    }
+}
+
+impl<const N: usize> NonlinearConfig<N> {
+    /// Reads the words of [`NonlinearDesign::put_words`] with [`NonlinearDesign::build`]'s checks
+    /// (N parameters for the structure, a stable θ₀ inside the pole radius) and builds the RLS
+    /// design.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
+    pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
+        let structure = NonlinearStructure::take(r);
+        r.check(structure.parameter_count() == N);
+        let theta0 = <[ParamI12F20; N]>::take(r);
+        let radius = PoleRadius::take(r);
+        r.check(
+            theta0
+                .get(..structure.na())
+                .is_some_and(|den| radius.contains(den)),
+        );
+        let rls = RlsDesign::take(r);
+        r.status()?;
+        Ok(Self {
+            structure,
+            theta0,
+            rls: rls.build()?,
+            radius,
+        })
     }
 }

@@ -29,8 +29,10 @@
 #![deny(clippy::float_arithmetic)]
 
 use super::term;
+use crate::error::ConfigError;
 use crate::fixed::{PARAM_FRAC_BITS, ParamI12F20, SignalI16F16, sat_i32};
 use crate::rls::RlsConfig;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Which nonlinear model (see the module table for θ and the equations).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -244,5 +246,20 @@ pub fn evaluate<const N: usize>(
         dy_ds_i12f20: dy_ds,
         dy_dtheta,
         saturated: sat,
+    }
+}
+
+/// Words: the index in [`NonlinearStructure::ALL`].
+impl Words for NonlinearStructure {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        let index = Self::ALL.iter().position(|s| s == self).unwrap_or(0);
+        index.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        let index = usize::take(r);
+        Self::ALL.get(index).copied().unwrap_or_else(|| {
+            r.fail();
+            Self::Wiener
+        })
     }
 }

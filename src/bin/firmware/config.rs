@@ -38,17 +38,11 @@
 //! × 5·10⁻⁸ m)`. See [`design`] for the priors.
 //!
 //! # Fixture layout
-//! [`FIXTURE_SAMPLES`] records of [`RECORD_BYTES`] bytes, little-endian, no header:
-//!
-//! | bytes | field | format |
-//! |---|---|---|
-//! | 0..4 | y, measured position | whole quanta, `i32` (the encoder's positions are on its grid) |
-//! | 4..10 | r, reference position | [`PositionI48F16`] raw, 48-bit two's complement (quanta × 2¹⁶) |
-//! | 10..12 | u, drive | [`SignalI16F16`] raw, `i16` (fraction of [`U_FULL_SCALE_V`] × 2¹⁶, so \|u\| < 5 V) |
-//!
-//! 12 bytes instead of the 20 of the in-memory `Sample` (`i64`, `i64`, `i32`): [`encode`] refuses a
-//! sample that does not fit (y off the grid, r beyond ±2⁴⁷ raw, \|u\| ≥ 5 V), so [`decode`] returns
-//! exactly the sample that was encoded.
+//! [`FIXTURE_SAMPLES`] records, delta-encoded with variable length ([`recording`]: three zigzag
+//! varints per record, Δ²y in whole quanta, Δ³r in raw [`sledid::PositionI48F16`], Δ²u in raw
+//! [`sledid::SignalI16F16`]), no header. [`recording::encode`] refuses a sample that does not fit (y off
+//! the grid or beyond `i32` quanta, r beyond ±2⁴⁷ raw, \|u\| ≥ 5 V), so [`recording::Cursor`]
+//! returns exactly the samples that were encoded.
 //!
 //! # Checksum
 //! FNV-1a 64 (offset basis `0xcbf29ce484222325`, prime `0x100000001b3`) over, for every sample in
@@ -67,6 +61,7 @@
 //!
 //! 34 bytes per sample, 44 on the samples where the Wiener estimator runs.
 
+use core::borrow::BorrowMut;
 use core::fmt;
 
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
@@ -74,7 +69,14 @@ use sledid::error::ConfigError;
 use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::rls::{AntiWindup, RlsDesign};
 use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
-use sledid::{PositionI48F16, Sample, SignalI16F16};
+
+include!("loop_words.rs");
+
+#[path = "recording.rs"]
+pub mod recording;
+
+pub use recording::Cursor;
+use sledid::Sample;
 
 /// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
 pub const N: usize = VELOCITY_N;
@@ -95,18 +97,15 @@ pub const EMPS_KP_PER_S: f64 = 160.18;
 /// EMPS velocity-loop gain kv, V/(m/s) (`shared/data` README).
 pub const EMPS_KV_V_S_PER_M: f64 = 243.45;
 
-/// Sensor quantum of the EMPS encoder, m (one [`PositionI48F16`] unit).
+/// Sensor quantum of the EMPS encoder, m (one [`sledid::PositionI48F16`] unit).
 pub const QUANTUM_M: f64 = 5e-8;
 
-/// Full-scale drive, V (one [`SignalI16F16`] unit of u).
+/// Full-scale drive, V (one [`sledid::SignalI16F16`] unit of u).
 pub const U_FULL_SCALE_V: f64 = 10.0;
 
-/// Records in the fixture: the first 640 rows of `DATA_EMPS.csv` (sized so that the firmware image,
-/// fixture included, fits the 32 KiB flash budget; see `BENCHMARKS.md`).
+/// Records in the fixture: the first 640 rows of `DATA_EMPS.csv` (2,157 B delta-encoded; the
+/// image is above its 32 KiB flash budget with or without them, see `BENCHMARKS.md`).
 pub const FIXTURE_SAMPLES: usize = 640;
-
-/// Bytes per fixture record: y (`i32` quanta), r (48-bit raw), u (`i16` raw), little-endian.
-pub const RECORD_BYTES: usize = 12;
 
 /// What starts the firmware's result line (followed by a space and the [`Summary`]).
 pub const RESULT_PREFIX: &str = "sledid-fw result:";
@@ -182,56 +181,24 @@ pub fn design() -> LoopDesign {
     }
 }
 
-/// Fraction bits of a [`PositionI48F16`] (y is stored in whole quanta).
-const POSITION_FRAC_BITS: u32 = 16;
-
-/// Decodes one record (the first [`RECORD_BYTES`] bytes of `bytes`); `None` if it is shorter.
-pub fn decode(bytes: &[u8]) -> Option<Sample> {
-    let (y, rest) = bytes.split_first_chunk::<4>()?;
-    let (r, rest) = rest.split_first_chunk::<6>()?;
-    let (u, _) = rest.split_first_chunk::<2>()?;
-    // r: sign-extend the 48-bit field (placed in the top of an i64, shifted back arithmetically).
-    let mut r8 = [0u8; 8];
-    if let Some(top) = r8.get_mut(2..) {
-        top.copy_from_slice(r);
-    }
-    Some(Sample {
-        y: PositionI48F16::from_raw(i64::from(i32::from_le_bytes(*y)) << POSITION_FRAC_BITS),
-        u: SignalI16F16::from_raw(i32::from(i16::from_le_bytes(*u))),
-        r: PositionI48F16::from_raw(i64::from_le_bytes(r8) >> 16),
-    })
+/// The configuration the firmware runs: [`LOOP_WORDS`] (generated on the host from [`design`])
+/// decoded and checked by [`LoopConfig::from_words`], without the `f64` build of [`design`].
+///
+/// # Errors
+/// The words' [`ConfigError`] (none for the committed words; the tests decode them).
+#[allow(dead_code)] // the firmware itself decodes into its static storage: `config_into`
+pub fn config() -> Result<LoopConfig, ConfigError> {
+    LoopConfig::from_words(&LOOP_WORDS)
 }
 
-/// Encodes one record (the inverse of [`decode`]); `None` when the sample does not fit the layout
-/// (module doc). Used by the host test that writes and checks the fixture, not by the firmware.
-#[allow(dead_code)]
-pub fn encode(sample: &Sample) -> Option<[u8; RECORD_BYTES]> {
-    let y_raw = sample.y.raw();
-    if y_raw & ((1 << POSITION_FRAC_BITS) - 1) != 0 {
-        return None;
-    }
-    let y = i32::try_from(y_raw >> POSITION_FRAC_BITS).ok()?;
-    let r_raw = sample.r.raw();
-    if !(-(1i64 << 47)..1i64 << 47).contains(&r_raw) {
-        return None;
-    }
-    let u = i16::try_from(sample.u.raw()).ok()?;
-    let mut out = [0u8; RECORD_BYTES];
-    let fields = y
-        .to_le_bytes()
-        .into_iter()
-        .chain(r_raw.to_le_bytes().into_iter().take(6))
-        .chain(u.to_le_bytes());
-    for (dst, b) in out.iter_mut().zip(fields) {
-        *dst = b;
-    }
-    Some(out)
-}
-
-/// Record `index` of a fixture (constant time); `None` past its end.
-pub fn record(fixture: &[u8], index: usize) -> Option<Sample> {
-    let start = index.checked_mul(RECORD_BYTES)?;
-    decode(fixture.get(start..)?)
+/// [`config`] decoded into `slot` ([`LoopConfig::from_words_into`]: without a copy of the
+/// controller's part on the stack); `None` in `slot` on an error.
+///
+/// # Errors
+/// As [`config`].
+#[allow(dead_code)] // the firmware's; the host replays from `design`
+pub fn config_into(slot: &mut Option<LoopConfig>) -> Result<(), ConfigError> {
+    LoopConfig::from_words_into(&LOOP_WORDS, slot)
 }
 
 /// FNV-1a, 64 bits, over a byte stream.
@@ -312,10 +279,14 @@ impl Default for Fnv1a64 {
 
 /// One replay of the loop: configuration, state, and the checksum of everything it produced.
 /// The firmware's SysTick handler and the host replay both step this, one sample at a time.
+///
+/// `C` holds the configuration: the host owns it (`LoopConfig`, the default); the firmware
+/// borrows it from its own static storage (`&'static mut LoopConfig`), so that the run and the
+/// configuration are each built in place, one after the other, not in one stack frame.
 #[derive(Clone, Debug)]
-pub struct Run {
+pub struct Run<C = LoopConfig> {
     /// The validated configuration of [`design`] (its controller gains swapped by redesigns).
-    pub(crate) config: LoopConfig,
+    pub(crate) config: C,
     /// The loop's state.
     pub(crate) state: LoopState,
     checksum: Fnv1a64,
@@ -328,20 +299,24 @@ pub struct Run {
 }
 
 impl Run {
-    /// A fresh run of [`design`].
+    /// A fresh run of [`design`], built from `f64` (the host's replay: the firmware decodes
+    /// [`config`] instead, so the QEMU test also checks that the words give the design).
     ///
     /// # Errors
     /// The design's [`ConfigError`] (none for the committed design; the tests build it).
+    #[allow(dead_code)] // the firmware starts from `config()`
     pub fn new() -> Result<Self, ConfigError> {
         Ok(Self::from_config(design().build()?))
     }
+}
 
+impl<C: BorrowMut<LoopConfig>> Run<C> {
     /// A fresh run of a built configuration (infallible, so that the firmware can construct it
     /// in place).
     #[inline(always)]
-    pub fn from_config(config: LoopConfig) -> Self {
+    pub fn from_config(config: C) -> Self {
         Self {
-            state: config.new_state(),
+            state: config.borrow().new_state(),
             config,
             checksum: Fnv1a64::new(),
             samples: 0,
@@ -356,7 +331,7 @@ impl Run {
     /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
     #[inline(never)]
     pub fn step(&mut self, sample: &Sample) -> LoopOutput {
-        let out = loop_step(&self.config, &mut self.state, sample);
+        let out = loop_step(self.config.borrow(), &mut self.state, sample);
         self.checksum.write_output(&out);
         self.samples = self.samples.wrapping_add(1);
         if out.velocity.status.contains(sledid::Status::UPDATED) {
@@ -378,7 +353,7 @@ impl Run {
 
     /// The slow-rate redesign (f32; from the main loop, not the interrupt), counted by outcome.
     pub fn redesign(&mut self) -> Redesign {
-        let outcome = self.config.redesign(&mut self.state);
+        let outcome = self.config.borrow_mut().redesign(&mut self.state);
         let count = match outcome {
             Redesign::Applied(_) => &mut self.applied,
             Redesign::Rejected(_) => &mut self.rejected,
@@ -408,7 +383,7 @@ impl Run {
             updates: self.updates,
             wiener_updates: self.wiener_updates,
             redesigns: [self.applied, self.rejected, self.skipped],
-            fallback: self.config.controller().fallback(),
+            fallback: self.config.borrow().controller().fallback(),
             checksum: self.checksum.value(),
             theta_raw,
             wiener_raw,
@@ -424,11 +399,10 @@ impl Run {
 #[allow(dead_code)] // the firmware steps the run from its interrupt instead
 pub fn replay(fixture: &[u8]) -> Result<Summary, ConfigError> {
     let mut run = Run::new()?;
-    let mut index = 0;
-    while let Some(sample) = record(fixture, index) {
+    let mut cursor = Cursor::new();
+    while let Some(sample) = cursor.next(fixture) {
         run.step(&sample);
-        index += 1;
-        if run.redesign_pending() && record(fixture, index).is_some() {
+        if run.redesign_pending() && cursor.clone().next(fixture).is_some() {
             run.redesign();
         }
     }
