@@ -393,6 +393,28 @@ fn mul_hi_round(a: i32, b: i32) -> i32 {
     ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
 }
 
+/// The top 32 bits of a product `p` in `[2^62, 2^64)` after a one-bit normalisation, and that
+/// bit (1 when `p ≥ 2^63`): one variable 64-bit shift, for 64-bit hosts. Same result as
+/// [`normalise_product_halves`] (unit test).
+#[inline(always)]
+fn normalise_product_u64(p: u64) -> (u32, u32) {
+    let top = (p >> 63) as u32;
+    (((p << (top ^ 1)) >> 32) as u32, top)
+}
+
+/// [`normalise_product_u64`] with constant shifts on the two words (a variable 64-bit shift costs
+/// ~8 instructions on Cortex-M). Bit 63 is data (about one time in two): a select, not a branch
+/// (a mispredicted branch costs ~4 pipeline flushes per update on a host).
+#[inline(always)]
+fn normalise_product_halves(p: u64) -> (u32, u32) {
+    let (hi, lo) = ((p >> 32) as u32, p as u32);
+    let top = hi >> 31;
+    (
+        core::hint::select_unpredictable(top != 0, hi, (hi << 1) | (lo >> 31)),
+        top,
+    )
+}
+
 /// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
 /// [`Dyadic`], without its exponent clamp and zero case. Exponents of stored values are within
 /// ±2¹⁴ and one update adds a few hundred at most, so `i32` cannot overflow; the clamp is applied
@@ -428,12 +450,11 @@ impl Pos {
     #[inline(always)]
     fn mul(self, rhs: Self) -> Self {
         let p = mul_u32_wide(self.m, rhs.m); // in [2^62, 2^64)
-        let (hi, lo) = ((p >> 32) as u32, p as u32);
-        // Constant shifts on the two words: a variable 64-bit shift costs ~8 instructions.
-        let top = hi >> 31;
-        // Bit 63 of the product is data (about one time in two): a select, not a branch (a
-        // mispredicted branch here cost the host ~4 pipeline flushes per update).
-        let m = core::hint::select_unpredictable(top != 0, hi, (hi << 1) | (lo >> 31));
+        let (m, top) = if cfg!(target_pointer_width = "64") {
+            normalise_product_u64(p)
+        } else {
+            normalise_product_halves(p)
+        };
         Self {
             m,
             e: self.e + rhs.e + 31 + top as i32,
@@ -823,6 +844,30 @@ mod tests {
 
     fn sig(x: f64) -> SignalI16F16 {
         SignalI16F16::from_f64(x).unwrap()
+    }
+
+    #[test]
+    fn product_normalisations_agree() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let (a, b) = ((x as u32) | 1 << 31, ((x >> 32) as u32) | 1 << 31);
+            let p = crate::wide::mul_u32_wide(a, b);
+            assert_eq!(
+                normalise_product_u64(p),
+                normalise_product_halves(p),
+                "{p:#x}"
+            );
+        }
+        for p in [1u64 << 62, (1 << 63) - 1, 1 << 63, u64::MAX] {
+            assert_eq!(
+                normalise_product_u64(p),
+                normalise_product_halves(p),
+                "{p:#x}"
+            );
+        }
     }
 
     /// Runs a noiseless 2-parameter regression and checks the estimate converges.
