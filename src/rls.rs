@@ -498,20 +498,17 @@ impl Pos {
     fn to_i1f31(self) -> i32 {
         // raw = m · 2^(e + 31) = m >> (−31 − e).
         let sh = -31 - self.e;
-        if sh <= 0 {
-            i32::MAX
-        } else {
-            self.shr_round(sh).min(i32::MAX as u32) as i32
-        }
+        // Selects, not branches (on Cortex-M4 they become conditional instructions).
+        let x = self.shr_round(sh);
+        let x = core::hint::select_unpredictable(x > i32::MAX as u32, i32::MAX as u32, x);
+        core::hint::select_unpredictable(sh <= 0, i32::MAX, x as i32)
     }
 
     /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
     #[inline(always)]
     fn shr_round(self, sh: i32) -> u32 {
-        if !(1..=32).contains(&sh) {
-            return 0;
-        }
-        let x = self.m >> (sh - 1);
+        // sh − 1 outside 0..=31 (sh < 1 or sh > 32) wraps to a shift of 32 or more: 0.
+        let x = self.m.checked_shr(sh.wrapping_sub(1) as u32).unwrap_or(0);
         (x >> 1) + (x & 1)
     }
 }
