@@ -470,7 +470,7 @@ impl Pos {
             (rhs, self)
         };
         let d = hi.e.abs_diff(lo.e);
-        let lo_m = if d >= 32 { 0 } else { lo.m >> d };
+        let lo_m = lo.m.checked_shr(d).unwrap_or(0);
         let (sum, carry) = hi.m.overflowing_add(lo_m);
         if carry {
             Self {
