@@ -80,8 +80,9 @@
 //! and 2.8·10⁻³; with 24 samples suggestive rather than conclusive), so neither is used.
 
 //! # Cost
-//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,040 instructions, ≈ 2,750
-//! cycles on Cortex-M4F and ≈ 7,060 cycles on M0+ (n = 2: ≈ 1,150 and ≈ 2,670). Per update that is
+//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 1,970 instructions, ≈ 2,650
+//! cycles on Cortex-M4F and ≈ 6,890 cycles on M0+ (n = 2: ≈ 1,100 and ≈ 2,560). On the host
+//! (x86-64) a full ARX(2,2) step on the EMPS recording takes ≈ 158 ns. Per update that is
 //! about 78 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
 //! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
 //! 300 / 2,000 cycles are out of reach for this factorisation in integers.
