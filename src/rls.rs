@@ -404,8 +404,8 @@ fn normalise_product_u64(p: u64) -> (u32, u32) {
 }
 
 /// [`normalise_product_u64`] with constant shifts on the two words (a variable 64-bit shift costs
-/// ~8 instructions on Cortex-M). Bit 63 is data (about one time in two): a select, not a branch
-/// (a mispredicted branch costs ~4 pipeline flushes per update on a host).
+/// ~8 instructions on Cortex-M). Bit 63 is data (set about one time in two): a select, not a
+/// branch (as a branch it was mispredicted ~4 times per update, cachegrind's branch simulation).
 #[inline(always)]
 fn normalise_product_halves(p: u64) -> (u32, u32) {
     let (hi, lo) = ((p >> 32) as u32, p as u32);
@@ -499,13 +499,13 @@ impl Pos {
     fn to_i1f31(self) -> i32 {
         // raw = m · 2^(e + 31) = m >> (−31 − e).
         let sh = -31 - self.e;
-        // Selects, not branches (on Cortex-M4 they become conditional instructions).
+        // Selects, not branches (fewer instructions on Cortex-M4F and M0+, `cargo xtask cost`).
         let x = self.shr_round(sh);
         let x = core::hint::select_unpredictable(x > i32::MAX as u32, i32::MAX as u32, x);
         core::hint::select_unpredictable(sh <= 0, i32::MAX, x as i32)
     }
 
-    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
+    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh < 1` or `sh > 32`).
     #[inline(always)]
     fn shr_round(self, sh: i32) -> u32 {
         // sh − 1 outside 0..=31 (sh < 1 or sh > 32) wraps to a shift of 32 or more: 0.
