@@ -80,8 +80,9 @@
 //! and 2.8·10⁻³; with 24 samples suggestive rather than conclusive), so neither is used.
 
 //! # Cost
-//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 2,040 instructions, ≈ 2,750
-//! cycles on Cortex-M4F and ≈ 7,060 cycles on M0+ (n = 2: ≈ 1,150 and ≈ 2,670). Per update that is
+//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 1,970 instructions, ≈ 2,650
+//! cycles on Cortex-M4F and ≈ 6,890 cycles on M0+ (n = 2: ≈ 1,100 and ≈ 2,560). On the host
+//! (x86-64) a full ARX(2,2) step on the EMPS recording takes ≈ 158 ns. Per update that is
 //! about 78 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
 //! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
 //! 300 / 2,000 cycles are out of reach for this factorisation in integers.
@@ -393,6 +394,28 @@ fn mul_hi_round(a: i32, b: i32) -> i32 {
     ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
 }
 
+/// The top 32 bits of a product `p` in `[2^62, 2^64)` after a one-bit normalisation, and that
+/// bit (1 when `p ≥ 2^63`): one variable 64-bit shift, for 64-bit hosts. Same result as
+/// [`normalise_product_halves`] (unit test).
+#[inline(always)]
+fn normalise_product_u64(p: u64) -> (u32, u32) {
+    let top = (p >> 63) as u32;
+    (((p << (top ^ 1)) >> 32) as u32, top)
+}
+
+/// [`normalise_product_u64`] with constant shifts on the two words (a variable 64-bit shift costs
+/// ~8 instructions on Cortex-M). Bit 63 is data (set about one time in two): a select, not a
+/// branch (as a branch it was mispredicted ~4 times per update, cachegrind's branch simulation).
+#[inline(always)]
+fn normalise_product_halves(p: u64) -> (u32, u32) {
+    let (hi, lo) = ((p >> 32) as u32, p as u32);
+    let top = hi >> 31;
+    (
+        core::hint::select_unpredictable(top != 0, hi, (hi << 1) | (lo >> 31)),
+        top,
+    )
+}
+
 /// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
 /// [`Dyadic`], without its exponent clamp and zero case. Exponents of stored values are within
 /// ±2¹⁴ and one update adds a few hundred at most, so `i32` cannot overflow; the clamp is applied
@@ -428,10 +451,11 @@ impl Pos {
     #[inline(always)]
     fn mul(self, rhs: Self) -> Self {
         let p = mul_u32_wide(self.m, rhs.m); // in [2^62, 2^64)
-        let (hi, lo) = ((p >> 32) as u32, p as u32);
-        // Constant shifts on the two words: a variable 64-bit shift costs ~8 instructions.
-        let top = hi >> 31;
-        let m = if top != 0 { hi } else { (hi << 1) | (lo >> 31) };
+        let (m, top) = if cfg!(target_pointer_width = "64") {
+            normalise_product_u64(p)
+        } else {
+            normalise_product_halves(p)
+        };
         Self {
             m,
             e: self.e + rhs.e + 31 + top as i32,
@@ -447,7 +471,7 @@ impl Pos {
             (rhs, self)
         };
         let d = hi.e.abs_diff(lo.e);
-        let lo_m = if d >= 32 { 0 } else { lo.m >> d };
+        let lo_m = lo.m.checked_shr(d).unwrap_or(0);
         let (sum, carry) = hi.m.overflowing_add(lo_m);
         if carry {
             Self {
@@ -475,20 +499,17 @@ impl Pos {
     fn to_i1f31(self) -> i32 {
         // raw = m · 2^(e + 31) = m >> (−31 − e).
         let sh = -31 - self.e;
-        if sh <= 0 {
-            i32::MAX
-        } else {
-            self.shr_round(sh).min(i32::MAX as u32) as i32
-        }
+        // Selects, not branches (fewer instructions on Cortex-M4F and M0+, `cargo xtask cost`).
+        let x = self.shr_round(sh);
+        let x = core::hint::select_unpredictable(x > i32::MAX as u32, i32::MAX as u32, x);
+        core::hint::select_unpredictable(sh <= 0, i32::MAX, x as i32)
     }
 
-    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
+    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh < 1` or `sh > 32`).
     #[inline(always)]
     fn shr_round(self, sh: i32) -> u32 {
-        if !(1..=32).contains(&sh) {
-            return 0;
-        }
-        let x = self.m >> (sh - 1);
+        // sh − 1 outside 0..=31 (sh < 1 or sh > 32) wraps to a shift of 32 or more: 0.
+        let x = self.m.checked_shr(sh.wrapping_sub(1) as u32).unwrap_or(0);
         (x >> 1) + (x & 1)
     }
 }
@@ -821,6 +842,30 @@ mod tests {
 
     fn sig(x: f64) -> SignalI16F16 {
         SignalI16F16::from_f64(x).unwrap()
+    }
+
+    #[test]
+    fn product_normalisations_agree() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let (a, b) = ((x as u32) | 1 << 31, ((x >> 32) as u32) | 1 << 31);
+            let p = crate::wide::mul_u32_wide(a, b);
+            assert_eq!(
+                normalise_product_u64(p),
+                normalise_product_halves(p),
+                "{p:#x}"
+            );
+        }
+        for p in [1u64 << 62, (1 << 63) - 1, 1 << 63, u64::MAX] {
+            assert_eq!(
+                normalise_product_u64(p),
+                normalise_product_halves(p),
+                "{p:#x}"
+            );
+        }
     }
 
     /// Runs a noiseless 2-parameter regression and checks the estimate converges.

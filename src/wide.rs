@@ -178,7 +178,9 @@ pub fn recip_q63(m: u32) -> u64 {
         // x += x·e / 2^63, with e/2^31 in i32 range.
         let e_hi = (e >> 31) as i32;
         let corr = mul_i32_u32_wide(e_hi, x) >> 32;
-        x = (i64::from(x) + corr).clamp(0, i64::from(u32::MAX)) as u32;
+        // |corr| ≤ x·|e|/2^63 < x/2^8: the sum stays positive, and only its upper end needs a
+        // clamp (it reaches 2^32 for m near 2^31).
+        x = (i64::from(x) + corr).min(i64::from(u32::MAX)) as u32;
     }
     u64::from(x)
 }
@@ -293,5 +295,14 @@ mod tests {
         }
         assert!(n > 1700);
         assert!((1u64 << 63) / u64::from(u32::MAX) - recip_q63(u32::MAX) <= 1);
+        // The seed is worst at the ends of its 256 intervals: check both ends of each.
+        for i in 0..256u64 {
+            for m in [(256 + i) << 23, ((257 + i) << 23) - 1] {
+                let m = m as u32;
+                let exact = (1u64 << 63) / u64::from(m);
+                let got = recip_q63(m);
+                assert!(exact - got <= 1 && got <= exact, "m = {m:#x}");
+            }
+        }
     }
 }
