@@ -494,6 +494,26 @@ impl Perturbation {
         Ok(p)
     }
 
+    /// The seven plants issue 5's targets name: nominal, mass ×0.7 and ×1.3, friction (Coulomb
+    /// and static) ×0.5 and ×1.5, quantum ×0.5 and ×2.
+    pub const ISSUE_PLANTS: [(&'static str, Perturbation); 7] = [
+        ("nominal", Self::scale(1.0, 1.0, 1.0)),
+        ("mass ×0.7", Self::scale(0.7, 1.0, 1.0)),
+        ("mass ×1.3", Self::scale(1.3, 1.0, 1.0)),
+        ("friction ×0.5", Self::scale(1.0, 0.5, 1.0)),
+        ("friction ×1.5", Self::scale(1.0, 1.5, 1.0)),
+        ("quantum ×0.5", Self::scale(1.0, 1.0, 0.5)),
+        ("quantum ×2", Self::scale(1.0, 1.0, 2.0)),
+    ];
+
+    const fn scale(mass: f64, friction: f64, quantum: f64) -> Self {
+        Self {
+            mass,
+            friction,
+            quantum,
+        }
+    }
+
     /// `params` scaled by these factors ([`perturbed`]).
     pub fn apply(&self, params: &TwinParams) -> TwinParams {
         perturbed(params, self.mass, self.friction, self.quantum)

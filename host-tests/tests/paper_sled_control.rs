@@ -18,17 +18,6 @@ fn paper_sled() -> TwinParams {
     TwinParams::default()
 }
 
-/// The plants of the issue as `--perturb` factors.
-const PLANTS: [(&str, f64, f64, f64); 7] = [
-    ("nominal", 1.0, 1.0, 1.0),
-    ("mass ×0.7", 0.7, 1.0, 1.0),
-    ("mass ×1.3", 1.3, 1.0, 1.0),
-    ("friction ×0.5", 1.0, 0.5, 1.0),
-    ("friction ×1.5", 1.0, 1.5, 1.0),
-    ("quantum ×0.5", 1.0, 1.0, 0.5),
-    ("quantum ×2", 1.0, 1.0, 2.0),
-];
-
 /// One seek's settling, in samples and quanta (e = target − y).
 #[derive(Debug)]
 struct Settling {
@@ -192,13 +181,8 @@ fn scheduled_meets_the_targets_on_the_paper_sled_and_its_perturbations() {
     let nominal = paper_sled();
     println!("{}", ControlSummary::TABLE_HEADER);
     let mut failures = Vec::new();
-    for (name, mass, friction, quantum) in PLANTS {
-        let params = Perturbation {
-            mass,
-            friction,
-            quantum,
-        }
-        .apply(&nominal);
+    for (name, perturbation) in Perturbation::ISSUE_PLANTS {
+        let params = perturbation.apply(&nominal);
         let base = run_tuned(&params, &nominal.plant, 1, SEEKS, ControllerKind::Baseline)
             .unwrap()
             .summary;

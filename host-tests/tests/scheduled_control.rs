@@ -13,7 +13,8 @@ use sledid::control::{ModelReport, Redesign, Region, Rejection, ScheduledDesign,
 use sledid::fixed::{ParamI12F20, SignalI16F16};
 use sledid::step::step;
 use sledid_host::control_eval::{
-    ControlSummary, ControllerKind, identifier_design, perturbed, run, scheduled_design,
+    ControlSummary, ControllerKind, Perturbation, identifier_design, perturbed, run,
+    scheduled_design,
 };
 use sledid_host::reference::control::position_from_quanta;
 use sledid_host::reference::scheduled::ScheduledF64;
@@ -21,17 +22,6 @@ use sledid_host::twin::{Twin, TwinParams};
 
 /// Seeks per plant and controller in the target test (the CLI table uses 100).
 const SEEKS: u32 = 100;
-
-/// The plants of the issue: nominal, mass ±30 %, friction ±50 %, quantum ×0.5 and ×2.
-const PLANTS: [(&str, f64, f64, f64); 7] = [
-    ("nominal", 1.0, 1.0, 1.0),
-    ("mass ×0.7", 0.7, 1.0, 1.0),
-    ("mass ×1.3", 1.3, 1.0, 1.0),
-    ("friction ×0.5", 1.0, 0.5, 1.0),
-    ("friction ×1.5", 1.0, 1.5, 1.0),
-    ("quantum ×0.5", 1.0, 1.0, 0.5),
-    ("quantum ×2", 1.0, 1.0, 2.0),
-];
 
 fn row(name: &str, s: &ControlSummary) {
     println!("{}", s.table_row(name));
@@ -48,8 +38,8 @@ fn row(name: &str, s: &ControlSummary) {
 fn scheduled_controller_meets_the_targets_against_the_well_damped_baseline() {
     println!("{}", ControlSummary::TABLE_HEADER);
     let mut failures = Vec::new();
-    for (name, mass, friction, quantum) in PLANTS {
-        let params = perturbed(&TwinParams::well_damped(), mass, friction, quantum);
+    for (name, perturbation) in Perturbation::ISSUE_PLANTS {
+        let params = perturbation.apply(&TwinParams::well_damped());
         let base = run(&params, 1, SEEKS, ControllerKind::Baseline)
             .unwrap()
             .summary;

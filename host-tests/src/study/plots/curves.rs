@@ -4,7 +4,7 @@
 use plotters::prelude::*;
 use std::path::Path;
 
-use super::{FONT, MEASURED, MODEL, font_ready, legend, range, tick};
+use super::{MEASURED, MODEL, curve_axes, font_ready, legend, range};
 use crate::study::StudyError;
 
 /// One curve of a panel.
@@ -62,21 +62,7 @@ fn draw(area: &super::Area, p: &CurvePanel) -> super::Drawn {
         p.curves.iter().flat_map(|c| c.points.iter().map(|q| q.1)),
         0.08,
     );
-    let mut c = ChartBuilder::on(area)
-        .caption(p.title.as_str(), (FONT, 17))
-        .margin(8)
-        .x_label_area_size(50)
-        .y_label_area_size(56)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
-    c.configure_mesh()
-        .x_desc(p.x_desc.as_str())
-        .y_desc(p.y_desc.as_str())
-        .x_labels(5)
-        .label_style((FONT, 13))
-        .axis_desc_style((FONT, 14))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .draw()?;
+    let mut c = curve_axes(area, &p.title, (x0, x1), (y0, y1), &p.x_desc, &p.y_desc)?;
     let mut k = 0;
     for curve in &p.curves {
         if curve.reference {

@@ -15,6 +15,7 @@
 //! | `fig18_nonlinear_xcorr.png` | Fig. 18 | simulation residual–input cross-correlation of each nonlinear model |
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use serde::Serialize;
 use std::error::Error;
@@ -158,8 +159,8 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
 }
 
 /// The legend every panel of the study draws: `position`, 13 pt, a white translucent box.
-pub(super) fn legend<'a, CT: plotters::coord::CoordTranslate>(
-    c: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+pub(super) fn legend<'a, 'b: 'a, CT: plotters::coord::CoordTranslate>(
+    c: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
     position: SeriesLabelPosition,
 ) -> Drawn {
     c.configure_series_labels()
@@ -169,6 +170,37 @@ pub(super) fn legend<'a, CT: plotters::coord::CoordTranslate>(
         .border_style(BLACK)
         .draw()?;
     Ok(())
+}
+
+/// The axes of a curve panel (the study's static maps, `curves::write_curves`): `caption` at
+/// 17 pt over `x` × `y`, five x labels, tick labels by [`tick`].
+pub(super) fn curve_axes<'a, 'b: 'a>(
+    area: &'a Area<'b>,
+    caption: &str,
+    x: (f64, f64),
+    y: (f64, f64),
+    x_desc: &str,
+    y_desc: &str,
+) -> Result<
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    Box<dyn Error>,
+> {
+    let mut c = ChartBuilder::on(area)
+        .caption(caption, (FONT, 17))
+        .margin(8)
+        .x_label_area_size(50)
+        .y_label_area_size(56)
+        .build_cartesian_2d(x.0..x.1, y.0..y.1)?;
+    c.configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_labels(5)
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 14))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
+    Ok(c)
 }
 
 /// `[lo, hi]` of `values` with a relative margin; never empty.

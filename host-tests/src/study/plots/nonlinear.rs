@@ -5,7 +5,7 @@
 use plotters::prelude::*;
 
 use super::time::{sim_panel, xcorr_panel};
-use super::{Area, Drawn, FONT, MEASURED, MODEL, legend, range, tick};
+use super::{Area, Drawn, MEASURED, MODEL, curve_axes, legend, range};
 use crate::study::report::RateReport;
 
 /// Colours of the ŷ(t−1) slices of eq. 6 after the first (which is [`MODEL`]).
@@ -55,21 +55,14 @@ pub(super) fn map_panels(area: &Area, rate: &RateReport) -> Drawn {
                 .copied(),
             0.08,
         );
-        let mut c = ChartBuilder::on(panel)
-            .caption(format!("{} {}", m.name, rate.label), (FONT, 17))
-            .margin(8)
-            .x_label_area_size(50)
-            .y_label_area_size(56)
-            .build_cartesian_2d(x0..x1, v0..v1)?;
-        c.configure_mesh()
-            .x_desc(map.input.as_str())
-            .y_desc(map.output.as_str())
-            .x_labels(5)
-            .label_style((FONT, 13))
-            .axis_desc_style((FONT, 14))
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .draw()?;
+        let mut c = curve_axes(
+            panel,
+            &format!("{} {}", m.name, rate.label),
+            (x0, x1),
+            (v0, v1),
+            &map.input,
+            &map.output,
+        )?;
         for x in map.data_range {
             c.draw_series(LineSeries::new(
                 [(x, v0), (x, v1)],
