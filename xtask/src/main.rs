@@ -1,5 +1,8 @@
 //! `cargo xtask <task>`: the project's checks as one command each.
 //!
+//! - `setup`: installs what a fresh machine with only rustup lacks (the thumb targets, rustfmt and
+//!   clippy, a nightly toolchain for cargo-fuzz, `qemu-system-arm`, `defmt-print`); `test` runs it
+//!   first, so the README's test command is all a newcomer runs.
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, and every host test (overflow checks on).
 //! - `fmt`: format the workspace.
@@ -24,7 +27,133 @@ fn cargo(args: &[&str]) -> bool {
     }
 }
 
+/// Runs `program args…`, printing it first; true on success.
+fn run(program: &str, args: &[&str]) -> bool {
+    println!("\n==> {program} {}", args.join(" "));
+    Command::new(program)
+        .args(args)
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// stdout of `program args…`, or empty when it cannot run.
+fn output(program: &str, args: &[&str]) -> String {
+    Command::new(program)
+        .args(args)
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+        .unwrap_or_default()
+}
+
+/// Is `program` on the PATH (it answers `--version`)?
+fn have(program: &str) -> bool {
+    Command::new(program)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The Debian package that provides `qemu-system-arm`.
+const QEMU_PACKAGE: &str = "qemu-system-arm";
+/// The defmt decoder the firmware tests pipe QEMU's output through.
+const DEFMT_PRINT_VERSION: &str = "1.2.0";
+
+/// Installs what `test` needs and a fresh machine lacks. Idempotent: each step checks first.
+///
+/// rustup installs `rust-toolchain.toml`'s targets and components only when it installs the
+/// toolchain itself; a machine that already had the pinned toolchain lacks them, so they are added
+/// here. `qemu-system-arm` comes from apt when this user can install packages (root, or sudo without
+/// a password); otherwise setup stops and prints the command to run.
+fn setup() -> bool {
+    let targets = output("rustup", &["target", "list", "--installed"]);
+    for t in THUMB_TARGETS {
+        if !targets.lines().any(|l| l.trim() == t) && !run("rustup", &["target", "add", t]) {
+            return false;
+        }
+    }
+    let components = output("rustup", &["component", "list", "--installed"]);
+    for c in ["rustfmt", "clippy"] {
+        if !components.lines().any(|l| l.starts_with(c)) && !run("rustup", &["component", "add", c])
+        {
+            return false;
+        }
+    }
+    // cargo-fuzz needs a nightly toolchain (sanitizer flags).
+    let toolchains = output("rustup", &["toolchain", "list"]);
+    if !toolchains.lines().any(|l| l.starts_with("nightly"))
+        && !run(
+            "rustup",
+            &["toolchain", "install", "nightly", "--profile", "minimal"],
+        )
+    {
+        return false;
+    }
+    if !have("qemu-system-arm") && !install_qemu() {
+        return false;
+    }
+    if !have("defmt-print")
+        && !cargo(&[
+            "install",
+            "--locked",
+            "--quiet",
+            "defmt-print",
+            "--version",
+            DEFMT_PRINT_VERSION,
+        ])
+    {
+        return false;
+    }
+    true
+}
+
+/// apt-get install qemu-system-arm, as root or through password-less sudo.
+fn install_qemu() -> bool {
+    let root = output("id", &["-u"]).trim() == "0";
+    let sudo = !root
+        && Command::new("sudo")
+            .args(["-n", "true"])
+            .status()
+            .is_ok_and(|s| s.success());
+    let apt = have("apt-get");
+    if apt && (root || sudo) {
+        let prefix: &[&str] = if root { &[] } else { &["sudo", "-n"] };
+        let cmd = |args: &[&str]| {
+            let all: Vec<&str> = prefix.iter().chain(args).copied().collect();
+            let (p, rest) = all.split_first().map_or(("", &[][..]), |(p, r)| (*p, r));
+            Command::new(p)
+                .args(rest)
+                .env("DEBIAN_FRONTEND", "noninteractive")
+                .status()
+                .is_ok_and(|s| s.success())
+        };
+        println!("\n==> apt-get install {QEMU_PACKAGE}");
+        if cmd(&["apt-get", "update", "-qq"])
+            && cmd(&[
+                "apt-get",
+                "install",
+                "-y",
+                "-qq",
+                "--no-install-recommends",
+                QEMU_PACKAGE,
+            ])
+            && have("qemu-system-arm")
+        {
+            return true;
+        }
+    }
+    eprintln!(
+        "xtask: the firmware tests need qemu-system-arm and this user cannot install it.\n\
+         Run:  sudo apt-get install -y --no-install-recommends {QEMU_PACKAGE}\n\
+         (other systems: install QEMU's ARM system emulator, e.g. `brew install qemu`), then \
+         `cargo xtask test` again."
+    );
+    false
+}
+
 fn test() -> bool {
+    if !setup() {
+        return false;
+    }
     let mut steps: Vec<Vec<&str>> = vec![
         vec!["fmt", "--all", "--check"],
         vec![
@@ -63,11 +192,11 @@ const FUZZ_TARGETS: [&str; 2] = ["step", "recording"];
 
 /// Runs every fuzz target for `runs` executions on nightly (installing cargo-fuzz if missing).
 fn fuzz(runs: u64) -> bool {
-    let have = Command::new("cargo")
+    let installed = Command::new("cargo")
         .args(["fuzz", "--version"])
         .output()
         .is_ok_and(|o| o.status.success());
-    if !have
+    if !installed
         && !cargo(&[
             "install",
             "--locked",
@@ -199,6 +328,7 @@ fn main() -> ExitCode {
     let task = std::env::args().nth(1).unwrap_or_default();
     let ok = match task.as_str() {
         "test" => test(),
+        "setup" => setup(),
         "fmt" => cargo(&["fmt", "--all"]),
         "cost" => cost(),
         "fuzz" => fuzz(
@@ -208,7 +338,7 @@ fn main() -> ExitCode {
                 .unwrap_or(10_000_000),
         ),
         _ => {
-            eprintln!("usage: cargo xtask <test|fmt|cost|fuzz [RUNS]>");
+            eprintln!("usage: cargo xtask <setup|test|fmt|cost|fuzz [RUNS]>");
             false
         }
     };
