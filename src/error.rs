@@ -1,6 +1,6 @@
 //! Typed errors: configuration (a `…Design` that cannot be built) and boundary conversions.
 //!
-//! The per-sample path never returns an error; it reports what it did in [`crate::status::Status`].
+//! The per-sample path never returns an error; it reports what it did in [`crate::ident::status::Status`].
 
 use core::fmt;
 

@@ -17,27 +17,14 @@
     )
 )]
 
-pub mod boundary;
-pub mod conditioning;
 pub mod control;
-pub mod decimate;
-pub mod dyadic;
 pub mod error;
-pub mod estimator;
-pub mod fixed;
-pub mod linear;
-pub mod neuron;
-pub mod nonlinear;
-pub mod regressor;
-pub mod rls;
-pub mod sled_loop;
-pub mod stability;
-pub mod status;
-pub mod step;
-pub mod wide;
+pub mod ident;
+pub mod num;
+pub mod servo;
 pub mod words;
 
-pub use boundary::{PositionI48F16, Sample, Scaling};
 pub use error::{BoundaryError, ConfigError};
-pub use fixed::{ParamI12F20, SignalI16F16};
-pub use status::Status;
+pub use ident::status::Status;
+pub use num::boundary::{PositionI48F16, Sample, Scaling};
+pub use num::fixed::{ParamI12F20, SignalI16F16};

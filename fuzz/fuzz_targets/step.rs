@@ -3,14 +3,14 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use sledid::boundary::{PositionI48F16, Sample};
-use sledid::conditioning::Conditioning;
-use sledid::fixed::SignalI16F16;
-use sledid::estimator::{Estimator, EstimatorDesign};
-use sledid::linear::{LinearDesign, Structure};
-use sledid::nonlinear::{NonlinearDesign, NonlinearStructure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, StuckSensorDesign, reject, step};
+use sledid::num::boundary::{PositionI48F16, Sample};
+use sledid::ident::conditioning::Conditioning;
+use sledid::num::fixed::SignalI16F16;
+use sledid::ident::estimator::{Estimator, EstimatorDesign};
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::nonlinear::{NonlinearDesign, NonlinearStructure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierDesign, StuckSensorDesign, reject, step};
 
 /// Reads little-endian values from the fuzzer's bytes (zeros when exhausted).
 struct Bytes<'a>(&'a [u8]);

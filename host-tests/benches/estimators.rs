@@ -2,8 +2,8 @@
 //! side by side, on the same closed-loop data (`cargo bench -p sledid-host --bench estimators`).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::compare::to_signal;
 use sledid_host::plants::{ClosedLoopSpec, closed_loop};
 use sledid_host::reference::linear::LinearF64;

@@ -1,4 +1,4 @@
-//! Full per-sample steps per second on real recordings: `sledid::step::step` — conditioning, the
+//! Full per-sample steps per second on real recordings: `sledid::ident::step::step` — conditioning, the
 //! model estimator, flags: the function the firmware's interrupt and `replay` call — on the EMPS
 //! and Silverbox recordings already converted at the boundary (reading and parsing the CSV is
 //! replay's I/O, measured by `replay --rate max` itself). ARX(2,2) and the first-order Wiener model.
@@ -7,13 +7,13 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sledid::Scaling;
-use sledid::boundary::Sample;
-use sledid::conditioning::Conditioning;
-use sledid::estimator::EstimatorDesign;
-use sledid::linear::{LinearDesign, Structure};
-use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, step};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::estimator::EstimatorDesign;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierDesign, step};
+use sledid::num::boundary::Sample;
 use sledid_host::recording::{ReaderOptions, read_all};
 use std::hint::black_box;
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 //!
 //! Sensor faults ([`crate::faults::Fault`]) corrupt the measurement before the controller and the
 //! identifier; a lost or non-finite reading makes the controller hold its last good measurement
-//! (sample-and-hold: it never stalls) and the identifier [`sledid::step::reject`] the sample. Plant
+//! (sample-and-hold: it never stalls) and the identifier [`sledid::ident::step::reject`] the sample. Plant
 //! faults change the twin mid-run: mass or friction steps, an amplifier that saturates early (the
 //! identifier is fed the controller's command, as firmware would be).
 
@@ -12,7 +12,7 @@ use crate::faults::{Fault, Injector, Reading};
 use crate::recording::Sample as RecSample;
 use crate::reference::control::{FixedPid, baseline_design};
 use crate::twin::{SledController, Twin, TwinParams};
-use sledid::step::{IdentifierConfig, IdentifierState, reject, step};
+use sledid::ident::step::{IdentifierConfig, IdentifierState, reject, step};
 use sledid::{Scaling, Status};
 
 /// A fault in the loop.

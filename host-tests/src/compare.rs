@@ -4,7 +4,7 @@
 use crate::reference::batch::{rms_error, simulate};
 use crate::reference::linear::LinearF64;
 use sledid::SignalI16F16;
-use sledid::linear::LinearDesign;
+use sledid::ident::linear::LinearDesign;
 
 /// How far the fixed-point estimate is from the float64 one.
 #[derive(Clone, Debug)]

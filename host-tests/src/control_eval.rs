@@ -1,6 +1,6 @@
 //! `sledid control`: the sled twin in closed loop with the library's controllers — the baseline PID
 //! (`sledid::control::pid`) or the gain-scheduled controller (`sledid::control::scheduled`) fed by
-//! the identifier through `sledid::step::step`, the firmware's per-sample function — and the
+//! the identifier through `sledid::ident::step::step`, the firmware's per-sample function — and the
 //! settling statistics the issue asks for, a JSON summary and a plot of a few step responses.
 //!
 //! The scheduled controller is tuned on a *nominal* plant ([`scheduled_design_for`]): the
@@ -24,10 +24,10 @@
 
 use serde::Serialize;
 use sledid::control::{InverseInputMap, Redesign, Region, ScheduledDesign, ScheduledFlags};
-use sledid::linear::Estimate;
-use sledid::nonlinear::NonlinearDesign;
-use sledid::sled_loop::{LoopConfig, LoopDesign, LoopState, WIENER_N};
-use sledid::step::IdentifierDesign;
+use sledid::ident::linear::Estimate;
+use sledid::ident::nonlinear::NonlinearDesign;
+use sledid::ident::step::IdentifierDesign;
+use sledid::servo::{LoopConfig, LoopDesign, LoopState, WIENER_N};
 use std::path::Path;
 
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
@@ -44,9 +44,9 @@ pub enum ControllerKind {
 }
 
 /// The identifier feeding the scheduled controller: the library's
-/// [`sledid::sled_loop::velocity_identifier`], the one the firmware runs too.
+/// [`sledid::servo::velocity_identifier`], the one the firmware runs too.
 pub fn identifier_design(prior: (f64, f64)) -> IdentifierDesign<2> {
-    sledid::sled_loop::velocity_identifier(prior)
+    sledid::servo::velocity_identifier(prior)
 }
 
 /// The velocity model (a, b) of a plant from its physics (viscous pole, drive gain; friction
@@ -87,7 +87,7 @@ pub fn scheduled_design_for(
     Ok(d)
 }
 
-/// The firmware's whole per-sample step ([`sledid::sled_loop`]: scheduled controller, its
+/// The firmware's whole per-sample step ([`sledid::servo`]: scheduled controller, its
 /// velocity identifier, optionally the Wiener model at 2·Ts) behind the twin's controller
 /// interface; the redesign runs after the sample that requests it, as the firmware's main loop
 /// would before the next interrupt.

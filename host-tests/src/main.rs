@@ -3,11 +3,11 @@
 //! timer interrupt calls), runs the float64 reference beside it, and writes a trace and a summary.
 
 use clap::{Parser, Subcommand};
-use sledid::conditioning::Conditioning;
-use sledid::linear::{LinearDesign, Structure};
-use sledid::nonlinear::NonlinearStructure;
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, step};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::nonlinear::NonlinearStructure;
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierDesign, step};
 use sledid::{Scaling, Status};
 use sledid_host::compare::relative_distance;
 use sledid_host::reference::batch::{rms_error, simulate};
@@ -258,7 +258,7 @@ fn replay_cmd(a: &ReplayArgs) -> Result<(), String> {
     };
     spec.rls.outlier_threshold = a.outlier;
     spec.rls.outlier_limit = a.outlier_limit;
-    spec.stuck_sensor = (a.stuck_samples > 0).then_some(sledid::step::StuckSensorDesign {
+    spec.stuck_sensor = (a.stuck_samples > 0).then_some(sledid::ident::step::StuckSensorDesign {
         samples: a.stuck_samples,
         min_drive: a.stuck_drive,
     });

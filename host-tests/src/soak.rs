@@ -6,10 +6,10 @@
 //! seam is passed as a rejected sample so no difference spans it. The twin runs the well-damped
 //! baseline ([`TwinParams::well_damped`]), whose faster limit cycle excites the identifier more.
 
-use sledid::conditioning::Conditioning;
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, reject, step};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierDesign, reject, step};
 use sledid::{Sample, Scaling, Status};
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;

@@ -4,10 +4,10 @@
 //! flags and follows as documented. `-- --nocapture` prints the table kept in RELIABILITY.md.
 
 use sledid::Status;
-use sledid::conditioning::Conditioning;
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierConfig, IdentifierDesign, StuckSensorDesign};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierConfig, IdentifierDesign, StuckSensorDesign};
 use sledid_host::closed_loop::{LoopFault, LoopRun, run_loop};
 use sledid_host::faults::Fault;
 use sledid_host::twin::TwinParams;

@@ -7,8 +7,8 @@
 //! I16F16; there the fixed-point estimate loses its precision. That scaling is outside the range
 //! analysis of `src/fixed.rs` and documented in `src/conditioning.rs`.)
 
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::compare::{Decisions, compare_linear, signal_grid_sensitivity};
 use sledid_host::recording::{ReaderOptions, read_all};
 
@@ -157,7 +157,7 @@ fn emps_arx_and_output_error_agree_with_float64() {
 #[test]
 #[ignore = "a measurement (24 replays of the whole record), run on demand"]
 fn emps_arx_rounding_spread() {
-    use sledid::conditioning::Conditioning;
+    use sledid::ident::conditioning::Conditioning;
     use sledid_host::replay::{ReplaySpec, replay};
     let mut errs = Vec::new();
     let mut rms = Vec::new();

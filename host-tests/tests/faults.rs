@@ -41,7 +41,7 @@ fn spec(faults: Vec<Fault>) -> ReplaySpec {
     s.u_full_scale = 5.0;
     s.rls.outlier_threshold = 20.0; // quanta per sample: a seek moves up to ~30
     s.rls.outlier_limit = 16;
-    s.stuck_sensor = Some(sledid::step::StuckSensorDesign {
+    s.stuck_sensor = Some(sledid::ident::step::StuckSensorDesign {
         samples: 2,
         min_drive: 0.1,
     });

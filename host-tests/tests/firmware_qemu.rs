@@ -1,5 +1,5 @@
 //! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU, bit-exact with the host
-//! replay of the same recording through the same loop step (`sledid::sled_loop`, shadow mode:
+//! replay of the same recording through the same loop step (`sledid::servo`, shadow mode:
 //! scheduled controller, supervisor, velocity identifier, decimator, Wiener model) and the same
 //! redesign rule (`fw_config::replay`).
 //!
@@ -40,7 +40,7 @@ use fw_config::{
     FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, Summary, U_FULL_SCALE_V,
 };
 use sledid::error::ConfigError;
-use sledid::sled_loop::{LOOP_WORDS_MAX, LoopConfig};
+use sledid::servo::{LOOP_WORDS_MAX, LoopConfig};
 use sledid::words::{WordWriter, Words};
 use sledid::{Sample, Scaling};
 use sledid_host::recording::{ReaderOptions, RecordingReader};

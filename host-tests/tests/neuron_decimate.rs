@@ -1,16 +1,16 @@
 //! The building blocks of the paper's nonlinear models against float64: the fixed-point tanh neuron
-//! and its derivatives (`sledid::neuron`), and the half-band decimator (`sledid::decimate`), with the
+//! and its derivatives (`sledid::ident::neuron`), and the half-band decimator (`sledid::ident::decimate`), with the
 //! figures their module docs state measured here and printed.
 
 use proptest::prelude::*;
 use sledid::ConfigError;
-use sledid::decimate::{DecimatorConfig, DecimatorState, GROUP_DELAY_SAMPLES, TAPS};
-use sledid::fixed::{ParamI12F20, SignalI16F16};
-use sledid::neuron::{
+use sledid::ident::decimate::{DecimatorConfig, DecimatorState, GROUP_DELAY_SAMPLES, TAPS};
+use sledid::ident::neuron::{
     HiddenLayer, HiddenLayerDesign, Neuron, NeuronDesign, ONE_I2F30, TABLE_LEN, TANH_TABLE_I2F30,
     tanh_i2f30,
 };
-use sledid::status::Status;
+use sledid::ident::status::Status;
+use sledid::num::fixed::{ParamI12F20, SignalI16F16};
 use sledid_host::recording::{ReaderOptions, read_all};
 use sledid_host::reference::decimate::{
     DecimatorF64, PASSBAND_EDGE, STOPBAND_EDGE, config_taps, design_taps, magnitude,
@@ -20,7 +20,7 @@ use std::f64::consts::PI;
 
 /// One I16F16 step.
 const LSB: f64 = 1.0 / 65_536.0;
-/// The documented max |tanh error| (module doc of `sledid::neuron`).
+/// The documented max |tanh error| (module doc of `sledid::ident::neuron`).
 const TANH_ERR: f64 = 9.4e-5;
 /// The requirement.
 const TANH_REQ: f64 = 1.0 / 4096.0;
@@ -137,7 +137,7 @@ fn tanh_saturates_outside_the_table() {
     }
 }
 
-/// The documented bounds of the module doc of `sledid::neuron` for one evaluation.
+/// The documented bounds of the module doc of `sledid::ident::neuron` for one evaluation.
 fn check_neuron(n: &Neuron, x: SignalI16F16) {
     let f = NeuronF64::from_fixed(n);
     let xf = x.to_f64();

@@ -11,9 +11,9 @@
 //!
 //! `cargo test -p sledid-host --test nonlinear -- --nocapture` prints the table.
 
-use sledid::nonlinear::structure::{Lags, evaluate};
-use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::nonlinear::structure::{Lags, evaluate};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid::{ParamI12F20, SignalI16F16, Status};
 use sledid_host::plants::{
     ClosedLoopRecord, ClosedLoopSpec, NonlinearPlant, nonlinear_closed_loop,
@@ -290,7 +290,7 @@ fn structure_step_matches_float64() {
             if ev.saturated {
                 continue;
             }
-            // Scale: the neuron's error grows with |w|·|x| (see sledid::neuron's accuracy section).
+            // Scale: the neuron's error grows with |w|·|x| (see sledid::ident::neuron's accuracy section).
             let scale = 1.0 + thq.iter().fold(0.0f64, |m, x| m.max(x.abs())) * 80.0;
             worst[0] = worst[0].max((ev.y_hat.to_f64() - e64.y_hat).abs() / scale);
             for k in 0..n {

@@ -5,13 +5,13 @@
 //! equals `new()`; the shared per-sample `step` accepts any raw sample.
 
 use proptest::prelude::*;
-use sledid::boundary::{PositionI48F16, Sample};
-use sledid::conditioning::Conditioning;
-use sledid::dyadic::Dyadic;
-use sledid::fixed::{ParamI12F20, SignalI16F16};
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
-use sledid::step::{IdentifierDesign, step};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
+use sledid::ident::step::{IdentifierDesign, step};
+use sledid::num::boundary::{PositionI48F16, Sample};
+use sledid::num::dyadic::Dyadic;
+use sledid::num::fixed::{ParamI12F20, SignalI16F16};
 
 fn config() -> ProptestConfig {
     ProptestConfig {
@@ -165,7 +165,7 @@ proptest! {
         ],
         samples in prop::collection::vec((any::<i64>(), signal(), any::<i64>()), 1..200),
     ) {
-        use sledid::nonlinear::NonlinearStructure;
+        use sledid::ident::nonlinear::NonlinearStructure;
         let structure = NonlinearStructure::ALL[which];
         match structure.parameter_count() {
             5 => run_nonlinear::<5>(structure, d, &theta, f1, conditioning, &samples)?,
@@ -191,14 +191,14 @@ proptest! {
 /// A nonlinear estimator through the shared step on any samples: no panic, P positive definite,
 /// the linear denominator inside the unit circle after every sample.
 fn run_nonlinear<const N: usize>(
-    structure: sledid::nonlinear::NonlinearStructure,
+    structure: sledid::ident::nonlinear::NonlinearStructure,
     d: RlsDesign,
     theta: &[f64],
     f1: f64,
     conditioning: Conditioning,
     samples: &[(i64, i32, i64)],
 ) -> Result<(), TestCaseError> {
-    use sledid::nonlinear::NonlinearDesign;
+    use sledid::ident::nonlinear::NonlinearDesign;
     let mut theta0 = [0.0; N];
     theta0.copy_from_slice(&theta[..N]);
     // A stable denominator: f₁ only (f₂ = 0 for second-order structures).

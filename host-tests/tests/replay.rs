@@ -1,8 +1,8 @@
 //! `replay` end to end on every bundled dataset: every row replayed through the per-sample step,
 //! trace and summary written, and the fixed-point estimate within tolerance of float64.
 
-use sledid::conditioning::Conditioning;
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::recording::ReaderOptions;
 use sledid_host::replay::{Rate, ReplaySpec, replay};
 use std::path::PathBuf;
@@ -186,8 +186,8 @@ fn a_sample_outside_the_format_stops_the_replay_naming_it() {
 /// barely-used neuron's a, c are ill-determined).
 #[test]
 fn silverbox_nonlinear_models_beat_their_linear_start() {
-    use sledid::linear::Structure;
-    use sledid::nonlinear::NonlinearStructure;
+    use sledid::ident::linear::Structure;
+    use sledid::ident::nonlinear::NonlinearStructure;
     let mut s = spec(
         "u=V1,y=V2",
         Some(1.0 / 610.35),

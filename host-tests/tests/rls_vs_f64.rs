@@ -11,8 +11,8 @@
 //!   within 3× the problem's own sensitivity to the signal format (float64 vs float64 with ŷ and ψ on
 //!   the I16F16 grid, [`signal_grid_sensitivity`]) and the simulation RMS within 1 %.
 
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::compare::{Comparison, Decisions, compare_linear, signal_grid_sensitivity};
 use sledid_host::plants::{ClosedLoopSpec, closed_loop};
 

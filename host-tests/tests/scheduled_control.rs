@@ -7,11 +7,11 @@ use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
 use embedded_hal::pwm::{ErrorType, SetDutyCycle};
 use proptest::prelude::*;
 use sledid::Status;
-use sledid::boundary::{PositionI48F16, Sample};
-use sledid::control::hal::{ControlLoop, HBridge, PositionSensor, PwmDirection};
 use sledid::control::{ModelReport, Redesign, Region, Rejection, ScheduledDesign, ScheduledFlags};
-use sledid::fixed::{ParamI12F20, SignalI16F16};
-use sledid::step::step;
+use sledid::ident::step::step;
+use sledid::num::boundary::{PositionI48F16, Sample};
+use sledid::num::fixed::{ParamI12F20, SignalI16F16};
+use sledid::servo::hal::{ControlLoop, HBridge, PositionSensor, PwmDirection};
 use sledid_host::control_eval::{
     ControlSummary, ControllerKind, Perturbation, identifier_design, perturbed, run,
     scheduled_design,
@@ -88,7 +88,7 @@ fn fixed_point_matches_float64_in_closed_loop() {
         }
         if output_map {
             // A Wiener output map m(x) = x + 2·tanh(0.2·x) over ±40 quanta.
-            let neuron = sledid::neuron::NeuronDesign {
+            let neuron = sledid::ident::neuron::NeuronDesign {
                 w: 2.0,
                 a: 0.2,
                 c: 0.0,
@@ -512,7 +512,7 @@ fn output_map_acts_only_in_settle_and_identity_is_exact() {
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
     let map = |w: f64| {
-        let n = sledid::neuron::NeuronDesign { w, a: 0.2, c: 0.0 }
+        let n = sledid::ident::neuron::NeuronDesign { w, a: 0.2, c: 0.0 }
             .build()
             .unwrap();
         Some(sledid::control::InverseInputMap::from_neuron(&n, 40.0).unwrap())

@@ -1,11 +1,11 @@
-//! The firmware's whole per-sample step (`sledid::sled_loop`) in the twin's closed loop: the
+//! The firmware's whole per-sample step (`sledid::servo`) in the twin's closed loop: the
 //! scheduled controller, its velocity identifier, and the first-order Wiener model identified beside
 //! them at 2·Ts on the decimated, centred position.
 
 use sledid::Status;
 use sledid::control::Region;
-use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
-use sledid::rls::{AntiWindup, RlsDesign};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::control_eval::{ScheduledLoop, identifier_design, scheduled_design};
 use sledid_host::twin::{Twin, TwinParams};
 
@@ -36,7 +36,7 @@ fn run(
 ) -> (
     ScheduledLoop,
     ScheduledLoop,
-    Vec<(f64, Option<sledid::linear::Estimate>)>,
+    Vec<(f64, Option<sledid::ident::linear::Estimate>)>,
 ) {
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
@@ -109,7 +109,7 @@ fn wiener_beside_the_controller_observes_without_disturbing() {
 #[test]
 fn shadow_mode_identifies_from_the_applied_drive() {
     use sledid::PositionI48F16;
-    use sledid::sled_loop::LoopDesign;
+    use sledid::servo::LoopDesign;
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
     let loop_design = LoopDesign {
@@ -140,8 +140,8 @@ fn shadow_mode_identifies_from_the_applied_drive() {
 #[test]
 fn configuration_words_of_a_full_design_round_trip() {
     use sledid::ConfigError;
-    use sledid::sled_loop::{LOOP_WORDS_MAX, LoopConfig, LoopDesign};
-    use sledid::step::StuckSensorDesign;
+    use sledid::ident::step::StuckSensorDesign;
+    use sledid::servo::{LOOP_WORDS_MAX, LoopConfig, LoopDesign};
     use sledid_host::control_eval::physical_model;
     use sledid_host::twin::PlantParams;
 

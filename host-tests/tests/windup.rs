@@ -5,10 +5,10 @@
 //! drifts less than 1 % from its value at the start of the dwell and no saturation occurs. The same
 //! data without anti-windup winds P up and drags θ around — so the test can fail.
 
-use sledid::conditioning::Conditioning;
-use sledid::linear::{LinearDesign, Structure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::step::{IdentifierDesign, step};
+use sledid::ident::conditioning::Conditioning;
+use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::ident::step::{IdentifierDesign, step};
 use sledid::{Scaling, Status};
 use sledid_host::twin::{Twin, TwinParams};
 

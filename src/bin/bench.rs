@@ -6,20 +6,20 @@
 //! (a smoke test that the scenarios are meaningful, not a measurement).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
-use sledid::boundary::PositionI48F16;
 use sledid::control::{
     InverseInputMap, ModelReport, PidConfig, PidDesign, PidState, ScheduledConfig, ScheduledDesign,
     ScheduledState,
 };
-use sledid::decimate::{DecimatorConfig, DecimatorState};
-use sledid::fixed::{ParamI12F20, SignalI16F16};
-use sledid::linear::{LinearConfig, LinearDesign, LinearState, Structure};
-use sledid::neuron::{HiddenLayer, HiddenLayerDesign, NeuronDesign};
-use sledid::nonlinear::{
+use sledid::ident::decimate::{DecimatorConfig, DecimatorState};
+use sledid::ident::linear::{LinearConfig, LinearDesign, LinearState, Structure};
+use sledid::ident::neuron::{HiddenLayer, HiddenLayerDesign, NeuronDesign};
+use sledid::ident::nonlinear::{
     InputRanges, NonlinearConfig, NonlinearDesign, NonlinearState, NonlinearStructure,
 };
-use sledid::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
-use sledid::status::Status;
+use sledid::ident::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
+use sledid::ident::status::Status;
+use sledid::num::boundary::PositionI48F16;
+use sledid::num::fixed::{ParamI12F20, SignalI16F16};
 
 /// Length of the input tables (calls cycle through them).
 const TABLE: usize = 64;
@@ -308,12 +308,12 @@ impl ScheduledBench {
     }
 }
 
-/// The firmware's whole per-sample step (`sledid::sled_loop`): scheduled controller + supervisor,
+/// The firmware's whole per-sample step (`sledid::servo`): scheduled controller + supervisor,
 /// ARX(1,1) velocity identifier, two-channel half-band decimator, the Wiener model every second
 /// call (the mean over both phases is the per-sample cost). Same scenario as [`ScheduledBench`].
 pub struct LoopBench {
-    config: sledid::sled_loop::LoopConfig,
-    state: sledid::sled_loop::LoopState,
+    config: sledid::servo::LoopConfig,
+    state: sledid::servo::LoopState,
 }
 
 impl LoopBench {
@@ -323,8 +323,8 @@ impl LoopBench {
         let mut velocity_model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
         velocity_model.theta0 = [-0.8336, 23.66];
         velocity_model.rls = rls_design();
-        let velocity = sledid::step::IdentifierDesign::new(
-            sledid::conditioning::Conditioning::DifferencedOutput,
+        let velocity = sledid::ident::step::IdentifierDesign::new(
+            sledid::ident::conditioning::Conditioning::DifferencedOutput,
             velocity_model,
         );
         let mut wiener = NonlinearDesign::<5>::from_linear(
@@ -337,7 +337,7 @@ impl LoopBench {
             },
         );
         wiener.rls = rls_design();
-        let config = sledid::sled_loop::LoopDesign {
+        let config = sledid::servo::LoopDesign {
             controller,
             velocity,
             wiener: Some(wiener),
@@ -368,7 +368,7 @@ mod target {
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
-    use sledid::nonlinear::NonlinearStructure;
+    use sledid::ident::nonlinear::NonlinearStructure;
 
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));

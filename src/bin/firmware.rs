@@ -1,7 +1,7 @@
 //! `sledid-fw`: the whole per-sample loop as firmware. SysTick fires once per sled sample period
 //! (Ts = 0.455 ms); its handler feeds the next sample of a recording embedded in flash (the first
 //! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
-//! ([`sledid::sled_loop::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
+//! ([`sledid::servo::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
 //! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
 //! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`],
 //! decoded at start-up from configuration words the host computed from its design
@@ -59,7 +59,7 @@ mod target {
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
     use sledid::control::Redesign;
-    use sledid::sled_loop::LoopConfig;
+    use sledid::servo::LoopConfig;
 
     use super::FIXTURE;
     use super::fw_config::{

@@ -31,8 +31,8 @@
 #![deny(clippy::float_arithmetic)]
 
 use super::ConfigError;
-use crate::fixed::{ParamI12F20, SignalI16F16, shr_round_i64};
-use crate::neuron::Neuron;
+use crate::ident::neuron::Neuron;
+use crate::num::fixed::{ParamI12F20, SignalI16F16, shr_round_i64};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Grid intervals of the inverse table (2^5).

@@ -7,12 +7,12 @@
 //! | module | what |
 //! |---|---|
 //! | [`pid`] | the baseline PID/lead (this page documents its law, formats and accuracy) |
-//! | [`schedule`] | the seek / settle / hold regions and their hysteresis |
-//! | [`design`] | slow-rate indirect self-tuning: identified θ → velocity model → pole placement (f32, `libm`) |
+//! | [`scheduled::regions`] | the seek / settle / hold regions and their hysteresis |
+//! | [`placement`] | slow-rate indirect self-tuning: identified θ → velocity model → pole placement (f32, `libm`) |
 //! | [`compensation`] | inverse of a Hammerstein input map (the paper's tanh neuron), as a table |
 //! | [`scheduled`] | the per-sample scheduled law, transfers, anti-windup, supervisor and fallback |
-//! | [`supervisor`] | the scheduled controller's flags, the identifier's report, redesign outcomes |
-//! | [`hal`] | embedded-hal 1.0 boundary: `SetDutyCycle` drives, a position-sensor trait, the loop |
+//! | [`scheduled::supervisor`] | the scheduled controller's flags, the identifier's report, redesign outcomes |
+//! | [`crate::servo::hal`] | embedded-hal 1.0 boundary: `SetDutyCycle` drives, a position-sensor trait, the loop |
 //!
 //! The rest of this page is the baseline PID's documentation.
 //! # Equations
@@ -49,7 +49,7 @@
 //! # Formats
 //! | quantity | format | range | step |
 //! |---|---|---|---|
-//! | r, y, r_f, w history | `i64` I48F16 ([`crate::boundary::PositionI48F16`]) | ±1.4·10¹⁴ quanta | 2⁻¹⁶ quanta |
+//! | r, y, r_f, w history | `i64` I48F16 ([`crate::num::boundary::PositionI48F16`]) | ±1.4·10¹⁴ quanta | 2⁻¹⁶ quanta |
 //! | e, Δ, s | I16F16 ([`SignalI16F16`]) | ±32,768 quanta | 2⁻¹⁶ quanta |
 //! | Kp, Ki·Ts, Kd/(n·Ts) | [`Gain`]: `i32` mantissa, \|m\| ∈ [2³⁰, 2³¹), own shift | (0, 2¹⁵) u_fs per quantum | 2⁻³¹ relative |
 //! | α, 1 − α, β, 1 − β | U1F31 `u32` | [0, 1] | 4.7·10⁻¹⁰ |
@@ -97,17 +97,14 @@
 #![deny(clippy::float_arithmetic)]
 
 pub mod compensation;
-pub mod design;
-pub mod hal;
 pub mod pid;
-pub mod schedule;
+pub mod placement;
 pub mod scheduled;
-pub mod supervisor;
 
 pub use compensation::InverseInputMap;
-pub use design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
-pub use schedule::{Region, RegionDesign, RegionSelector};
+pub use placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
+pub use scheduled::regions::{Region, RegionDesign, RegionSelector};
 pub use scheduled::{
     ModelReport, Redesign, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledOutput,
     ScheduledState,
@@ -116,9 +113,9 @@ pub use scheduled::{
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;
 
-use crate::fixed::{SignalI16F16, shr_round_i64};
-use crate::status::Status;
-use crate::wide::{mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
+use crate::ident::status::Status;
+use crate::num::fixed::{SignalI16F16, shr_round_i64};
+use crate::num::wide::{mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Fraction bits of the I32F32 accumulator of the controller terms.

@@ -14,9 +14,9 @@ use super::{
     ConfigError, ControlFlags, ControlOutput, Gain, LIMIT_I32F32_MAX, ONE_U1F31, clamp_sym_i64,
     mul_i64_u1f31,
 };
-use crate::boundary::PositionI48F16;
-use crate::fixed::{SignalI16F16, sat_i32, shr_round_i64};
-use crate::wide::mul_i32_u32_wide;
+use crate::num::boundary::PositionI48F16;
+use crate::num::fixed::{SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::wide::mul_i32_u32_wide;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Longest moving sum of position differences in the derivative (history length).

@@ -9,7 +9,7 @@
 
 use sledid::PositionI48F16;
 use sledid::control::{ConfigError, ControlFlags, DerivativeOn, PidConfig, PidDesign, PidState};
-use sledid::fixed::SignalI16F16;
+use sledid::num::fixed::SignalI16F16;
 
 use crate::twin::{PidParams, SledController};
 

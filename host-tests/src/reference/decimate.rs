@@ -1,7 +1,7 @@
-//! The half-band decimator of [`sledid::decimate`] in `f64`: the unquantised design, direct-form
+//! The half-band decimator of [`sledid::ident::decimate`] in `f64`: the unquantised design, direct-form
 //! filtering and the frequency response.
 
-use sledid::decimate::{DecimatorConfig, GROUP_DELAY_SAMPLES, HALF_TAPS, TAPS};
+use sledid::ident::decimate::{DecimatorConfig, GROUP_DELAY_SAMPLES, HALF_TAPS, TAPS};
 use std::collections::VecDeque;
 use std::f64::consts::PI;
 

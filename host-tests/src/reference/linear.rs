@@ -1,10 +1,10 @@
-//! ARX and OE estimators in `f64`, mirroring [`sledid::linear`] decision for decision.
+//! ARX and OE estimators in `f64`, mirroring [`sledid::ident::linear`] decision for decision.
 
 use super::rls::RlsF64;
 use sledid::Status;
-use sledid::linear::{LinearDesign, Structure};
+use sledid::ident::linear::{LinearDesign, Structure};
 
-/// Float64 twin of `sledid::linear::LinearConfig` + `LinearState`.
+/// Float64 twin of `sledid::ident::linear::LinearConfig` + `LinearState`.
 #[derive(Clone, Debug)]
 pub struct LinearF64<const N: usize> {
     /// The RLS core.
@@ -38,7 +38,7 @@ pub struct EstimateF64 {
     pub status: Status,
 }
 
-/// Roots of the denominator inside |z| ≤ ρ (first/second order), as `sledid::stability`.
+/// Roots of the denominator inside |z| ≤ ρ (first/second order), as `sledid::ident::stability`.
 pub fn stable(den: &[f64], rho: f64) -> bool {
     match den {
         [] => true,
@@ -57,7 +57,7 @@ impl<const N: usize> LinearF64<N> {
             nk: design.nk,
             radius: design.stability_margin.map(|m| 1.0 - m),
             y_lag: vec![0.0; N],
-            u_lag: vec![0.0; N + sledid::regressor::MAX_DELAY],
+            u_lag: vec![0.0; N + sledid::ident::regressor::MAX_DELAY],
             psi_lag: [[0.0; N]; 2],
             signal_grid: false,
         }

@@ -1,7 +1,7 @@
 //! The tanh neuron and the one-hidden-layer sum in `f64` (the exact functions that
-//! [`sledid::neuron`] approximates), with analytic derivatives.
+//! [`sledid::ident::neuron`] approximates), with analytic derivatives.
 
-use sledid::neuron::{HiddenLayer, HiddenLayerDesign, Neuron, NeuronDesign};
+use sledid::ident::neuron::{HiddenLayer, HiddenLayerDesign, Neuron, NeuronDesign};
 
 /// `g(x) = w·tanh(a·x + c)` in `f64`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,12 +1,12 @@
 //! The paper's nonlinear models in `f64`: the simulation step of every structure with its exact
-//! derivatives ([`evaluate`], the function [`sledid::nonlinear::structure::evaluate`] approximates),
+//! derivatives ([`evaluate`], the function [`sledid::ident::nonlinear::structure::evaluate`] approximates),
 //! and [`NonlinearF64`], the recursive prediction-error estimator mirroring
-//! [`sledid::nonlinear::NonlinearConfig::step`] decision for decision.
+//! [`sledid::ident::nonlinear::NonlinearConfig::step`] decision for decision.
 
 use super::linear::stable;
 use super::rls::RlsF64;
 use sledid::Status;
-use sledid::nonlinear::{NonlinearDesign, NonlinearStructure};
+use sledid::ident::nonlinear::{NonlinearDesign, NonlinearStructure};
 
 /// One neuron `w·tanh(Σ aᵢxᵢ + c)`: g, ∂g/∂w, ∂g/∂aᵢ, ∂g/∂c, ∂g/∂xᵢ.
 fn term(w: f64, a: &[f64], c: f64, x: &[f64]) -> (f64, f64, Vec<f64>, f64, Vec<f64>) {
@@ -22,7 +22,7 @@ fn term(w: f64, a: &[f64], c: f64, x: &[f64]) -> (f64, f64, Vec<f64>, f64, Vec<f
     )
 }
 
-/// One simulation step and its derivatives (see `sledid::nonlinear::structure`).
+/// One simulation step and its derivatives (see `sledid::ident::nonlinear::structure`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvalF64 {
     /// s(t).
@@ -129,7 +129,7 @@ pub fn static_map(structure: NonlinearStructure, theta: &[f64], x: f64) -> Optio
     }
 }
 
-/// Float64 twin of `sledid::nonlinear::NonlinearConfig` + `NonlinearState`.
+/// Float64 twin of `sledid::ident::nonlinear::NonlinearConfig` + `NonlinearState`.
 #[derive(Clone, Debug)]
 pub struct NonlinearF64<const N: usize> {
     /// The RLS core.

@@ -14,7 +14,7 @@
 use super::batch::{levenberg_marquardt, normal_equations};
 use super::linear::stable;
 use super::nonlinear::evaluate;
-use sledid::nonlinear::NonlinearStructure;
+use sledid::ident::nonlinear::NonlinearStructure;
 
 /// Iteration limit.
 pub const MAX_ITERATIONS: usize = 300;

@@ -10,7 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use sledid::Status;
-use sledid::rls::AntiWindup;
+use sledid::ident::rls::AntiWindup;
 
 /// Which covariance update the reference uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,7 +50,7 @@ pub struct RlsF64<const N: usize> {
 
 impl<const N: usize> RlsF64<N> {
     /// θ = `theta0`, P = p0·I.
-    pub fn new(design: &sledid::rls::RlsDesign, theta0: [f64; N]) -> Self {
+    pub fn new(design: &sledid::ident::rls::RlsDesign, theta0: [f64; N]) -> Self {
         let mut p = [[0.0; N]; N];
         for (i, row) in p.iter_mut().enumerate() {
             row[i] = design.p0;

@@ -6,7 +6,7 @@
 //! path is measured against (`host-tests/tests/scheduled_control.rs`).
 
 use sledid::Status;
-use sledid::control::supervisor::DISTRUST;
+use sledid::control::scheduled::supervisor::DISTRUST;
 use sledid::control::{ConfigError, Region, ScheduledDesign};
 
 use super::control::PidF64;
@@ -30,7 +30,7 @@ pub struct GainsF64 {
     pub ki_settle: f64,
 }
 
-/// The pole placement of `sledid::control::design` in f64 for the velocity model (a, b).
+/// The pole placement of `sledid::control::placement` in f64 for the velocity model (a, b).
 pub fn place_f64(a: f64, b: f64, seek_pole: f64, settle_pole: f64, ff: bool) -> GainsF64 {
     let (ps, pz) = (seek_pole, settle_pole);
     let (s1, s2, s3) = (3.0 * pz, 3.0 * pz * pz, pz.powi(3));

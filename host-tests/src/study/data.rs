@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use crate::recording::Recording;
 use crate::reference::decimate::{DecimatorF64, design_taps};
-use sledid::decimate::GROUP_DELAY_SAMPLES;
+use sledid::ident::decimate::GROUP_DELAY_SAMPLES;
 
 /// Sample indices `start..end` (end exclusive); parsed from `A:B`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

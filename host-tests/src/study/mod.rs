@@ -51,7 +51,7 @@ use std::path::{Path, PathBuf};
 
 use crate::recording::{ReaderOptions, RecordingError, read_all};
 use crate::twin::TwinError;
-use sledid::decimate::GROUP_DELAY_SAMPLES;
+use sledid::ident::decimate::GROUP_DELAY_SAMPLES;
 
 pub use data::{Centring, Dataset, Segment, Signals};
 pub use report::{ModelReport, RateReport, Study};

@@ -29,7 +29,7 @@ use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear::{evaluate, static_map};
 use crate::reference::nonlinear_batch::{fit, simulate_from_measured};
-use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 
 /// Pole modulus an OE start beyond it is pulled in to (the batch fit accepts |p| ≤
 /// [`crate::reference::nonlinear_batch::MAX_POLE`] = 0.999).
@@ -48,7 +48,7 @@ pub fn describe(s: NonlinearStructure) -> (&'static str, &'static str, Option<f6
     }
 }
 
-/// θ's entry names, in θ's order (see `sledid::nonlinear::structure`).
+/// θ's entry names, in θ's order (see `sledid::ident::nonlinear::structure`).
 pub fn parameter_names(s: NonlinearStructure) -> &'static [&'static str] {
     match s {
         NonlinearStructure::Hammerstein => &["f1", "b1", "w1", "a1", "c1", "w2", "a2", "c2"],

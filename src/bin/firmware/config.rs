@@ -9,7 +9,7 @@
 //! sub-directory of `src/bin` so that cargo does not take it for a binary of its own.
 //!
 //! # The step: the whole loop in shadow mode
-//! Each record goes through [`sledid::sled_loop::LoopConfig::step_shadow`]`(r, y, u_recorded)`:
+//! Each record goes through [`sledid::servo::LoopConfig::step_shadow`]`(r, y, u_recorded)`:
 //! the gain-scheduled controller (with its supervisor) computes its drive beside the rig's own
 //! controller (returned and checksummed, not applied: QEMU has no plant), its ARX(1,1) velocity
 //! identifier and the Wiener model at 2·Ts (after the two-channel half-band ÷2 decimator) learn
@@ -66,9 +66,9 @@ use core::fmt;
 
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
-use sledid::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
-use sledid::rls::{AntiWindup, RlsDesign};
-use sledid::sled_loop::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::rls::{AntiWindup, RlsDesign};
+use sledid::servo::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
 
 include!("loop_words.rs");
 
@@ -151,7 +151,7 @@ pub fn baseline() -> PidDesign {
 ///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation;
 /// - velocity identifier: ARX(1,1) on Δy against u (`DifferencedOutput`), θ₀ = [−a, b] of the
 ///   prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
-///   (16 in a row) — `sledid::sled_loop::velocity_identifier`;
+///   (16 in a row) — `sledid::servo::velocity_identifier`;
 /// - Wiener model at 2·Ts: `from_linear(Wiener, WIENER_PRIOR, WIENER_RANGES)`, λ = 0.995,
 ///   P₀ = 100·I, dead zone ¼ quantum, trace(P) ≤ 100.
 pub fn design() -> LoopDesign {
@@ -159,7 +159,7 @@ pub fn design() -> LoopDesign {
     controller.supervisor.pole_max = EMPS_POLE_MAX;
     controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
 
-    let velocity = sledid::sled_loop::velocity_identifier(EMPS_VELOCITY_PRIOR);
+    let velocity = sledid::servo::velocity_identifier(EMPS_VELOCITY_PRIOR);
 
     let mut wiener = NonlinearDesign::<NW>::from_linear(
         NonlinearStructure::Wiener,

@@ -9,10 +9,10 @@
 //! ψₛ(t) = ∂F/∂θ + ∂F/∂s₁·ψₛ(t−1) + ∂F/∂s₂·ψₛ(t−2)           sensitivity of the state
 //! ψ(t)  = ∂H/∂θ + ∂H/∂s·ψₛ(t)                              gradient of the simulated output
 //! ε(t)  = y(t) − ŷ(t)
-//! θ(t) = θ(t−1) + P(t)ψ(t)ε(t),  P by Bierman's UD update   ([`crate::rls`], its anti-windup)
+//! θ(t) = θ(t−1) + P(t)ψ(t)ε(t),  P by Bierman's UD update   ([`crate::ident::rls`], its anti-windup)
 //! ```
 //! then the stability projection keeps the linear denominator θ[..na] inside |z| ≤ ρ
-//! ([`crate::stability::project_denominator`]). The simulated state is kept a priori (computed with
+//! ([`crate::ident::stability::project_denominator`]). The simulated state is kept a priori (computed with
 //! θ(t−1)): the sensitivities describe exactly the sequence that was simulated.
 //!
 //! For eq. 6 and the friction model the feedback coefficients ∂F/∂s depend on the neuron
@@ -38,14 +38,14 @@ pub mod term;
 pub use structure::{Lags, NonlinearStructure};
 
 use crate::error::ConfigError;
-use crate::estimator::{Estimator, EstimatorDesign};
-use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
-use crate::linear::Estimate;
-use crate::neuron::INITIAL_BIAS_SPREAD;
-use crate::rls::{RlsConfig, RlsDesign, RlsState};
-use crate::stability::{PoleRadius, project_denominator};
-use crate::status::Status;
-use crate::wide::mul_i32_wide;
+use crate::ident::estimator::{Estimator, EstimatorDesign};
+use crate::ident::linear::Estimate;
+use crate::ident::neuron::INITIAL_BIAS_SPREAD;
+use crate::ident::rls::{RlsConfig, RlsDesign, RlsState};
+use crate::ident::stability::{PoleRadius, project_denominator};
+use crate::ident::status::Status;
+use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::wide::mul_i32_wide;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// The expected ranges of the neurons' inputs, for the initial input weights (conditioned units).

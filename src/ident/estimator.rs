@@ -1,14 +1,14 @@
-//! What the per-sample step needs from a model estimator, so one [`crate::step::step`] drives the
-//! linear models ([`crate::linear`], eq. 1–2) and the paper's nonlinear ones ([`crate::nonlinear`],
+//! What the per-sample step needs from a model estimator, so one [`crate::ident::step::step`] drives the
+//! linear models ([`crate::ident::linear`], eq. 1–2) and the paper's nonlinear ones ([`crate::ident::nonlinear`],
 //! eq. 5–7, Wiener, friction feedback) alike.
 //!
 //! Every estimator follows the crate's split: a `…Design` in engineering units builds a validated,
 //! quantised configuration (`&self` in the per-sample call) and a state it mutates.
 
 use crate::error::ConfigError;
-use crate::fixed::{ParamI12F20, SignalI16F16};
-use crate::linear::Estimate;
-use crate::rls::RlsState;
+use crate::ident::linear::Estimate;
+use crate::ident::rls::RlsState;
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 
 /// A validated model estimator with N parameters.
 pub trait Estimator<const N: usize> {

@@ -32,7 +32,7 @@
 //! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. Each dⱼ,
 //!   αⱼ and 1/αⱼ carries its own exponent (32-bit mantissa), so range costs nothing.
 //! - **No division.** The only reciprocals are of αⱼ, by a table-seeded Newton iteration
-//!   ([`crate::wide::recip_q63`]): no 64-bit software division on the hot path.
+//!   ([`crate::num::wide::recip_q63`]): no 64-bit software division on the hot path.
 //! - **Fixed point where the range is known.** f is normalised by a power of two (block floating
 //!   point: ψ·2⁻ᵏ, which only rescales α₀ to λ·4⁻ᵏ and the gain by 2⁻ᵏ, both exact), the gains gⱼ share
 //!   one exponent per update, and U is I8F24 — its entries are ratios of parameter scales, bounded
@@ -89,11 +89,11 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use crate::dyadic::Dyadic;
 use crate::error::ConfigError;
-use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
-use crate::status::Status;
-use crate::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
+use crate::ident::status::Status;
+use crate::num::dyadic::Dyadic;
+use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
+use crate::num::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
 
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
@@ -200,7 +200,7 @@ impl RlsDesign {
     /// A [`ConfigError`] naming the first parameter out of range.
     ///
     /// ```
-    /// use sledid::rls::{AntiWindup, RlsDesign};
+    /// use sledid::ident::rls::{AntiWindup, RlsDesign};
     /// let cfg = RlsDesign { lambda: 0.995, anti_windup: AntiWindup::TraceLimit { max: 100.0 },
     ///                       ..RlsDesign::default() }.build();
     /// assert!(cfg.is_ok());
@@ -371,7 +371,7 @@ fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
     let term = |dj: &Dyadic, n: u64| {
         // n ≥ 2^48: its high word is non-zero, one 32-bit leading-zero count normalises it.
         let (hi, lo) = ((n >> 32) as u32, n as u32);
-        let lz = crate::wide::leading_zeros_u32(hi); // < 16
+        let lz = crate::num::wide::leading_zeros_u32(hi); // < 16
         let norm = Pos {
             m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
             e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
@@ -483,11 +483,11 @@ impl Pos {
         }
     }
 
-    /// `1 / self` ([`crate::wide::recip_q63`], within two units of the last kept bit).
+    /// `1 / self` ([`crate::num::wide::recip_q63`], within two units of the last kept bit).
     #[inline(always)]
     fn recip(self) -> Self {
         // recip_q63 is in [2^31 − 1, 2^32): keep the mantissa normalised.
-        let x = (crate::wide::recip_q63(self.m) as u32).max(1 << 31);
+        let x = (crate::num::wide::recip_q63(self.m) as u32).max(1 << 31);
         Self {
             m: x,
             e: -63 - self.e,
@@ -536,7 +536,7 @@ impl RlsConfig {
         for (t, p) in theta.iter().zip(psi.iter()) {
             acc_i28f36 = acc_i28f36.saturating_add(mul_i32_wide(t.raw(), p.raw()));
         }
-        let y = shr_round_i64(acc_i28f36, crate::fixed::PARAM_FRAC_BITS);
+        let y = shr_round_i64(acc_i28f36, crate::num::fixed::PARAM_FRAC_BITS);
         SignalI16F16::from_raw(sat_i32(y, saturated))
     }
 
@@ -601,7 +601,7 @@ impl RlsConfig {
             return Status::LOW_EXCITATION;
         }
         // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
-        let b = crate::wide::bit_len_u64(f_or);
+        let b = crate::num::wide::bit_len_u64(f_or);
         let k = b - 40;
         let mut fh_i1f31 = [0i32; N];
         let sh = b - 32; // f̂ = round(f / 2^(sh + 1))
@@ -647,7 +647,7 @@ impl RlsConfig {
                 *dn = Dyadic::from_normalised(dl.m, dl.e);
                 continue;
             }
-            let lz = crate::wide::leading_zeros_u32(fa);
+            let lz = crate::num::wide::leading_zeros_u32(fa);
             let f = Pos {
                 m: fa << lz,
                 e: -31 - lz as i32,
@@ -852,7 +852,7 @@ mod tests {
             x ^= x >> 7;
             x ^= x << 17;
             let (a, b) = ((x as u32) | 1 << 31, ((x >> 32) as u32) | 1 << 31);
-            let p = crate::wide::mul_u32_wide(a, b);
+            let p = crate::num::wide::mul_u32_wide(a, b);
             assert_eq!(
                 normalise_product_u64(p),
                 normalise_product_halves(p),

@@ -30,8 +30,8 @@
 
 use super::term;
 use crate::error::ConfigError;
-use crate::fixed::{PARAM_FRAC_BITS, ParamI12F20, SignalI16F16, sat_i32};
-use crate::rls::RlsConfig;
+use crate::ident::rls::RlsConfig;
+use crate::num::fixed::{PARAM_FRAC_BITS, ParamI12F20, SignalI16F16, sat_i32};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Which nonlinear model (see the module table for θ and the equations).

@@ -1,11 +1,11 @@
 //! The scheduled controller's reporting and supervision types: the per-sample flags
 //! ([`ScheduledFlags`], with [`ScheduledFlags::FALLBACK`] saying when the baseline drives), the
 //! identifier's report the supervisor reads ([`ModelReport`], [`DISTRUST`]) and the outcome of a
-//! slow-rate redesign ([`Redesign`]). The logic is in [`super::scheduled`].
+//! slow-rate redesign ([`Redesign`]). The logic is in [`super`].
 
-use super::design::{Rejection, VelocityModel};
-use crate::fixed::SignalI16F16;
-use crate::status::Status;
+use crate::control::placement::{Rejection, VelocityModel};
+use crate::ident::status::Status;
+use crate::num::fixed::SignalI16F16;
 
 /// What the scheduled controller did in one sample.
 #[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
@@ -62,7 +62,7 @@ pub const DISTRUST: Status = Status::from_bits(
         | Status::OUTLIER.bits(),
 );
 
-/// What the identifier reported this sample (from [`crate::step::StepOutput`]).
+/// What the identifier reported this sample (from [`crate::ident::step::StepOutput`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelReport {

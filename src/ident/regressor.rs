@@ -3,7 +3,7 @@
 /// Largest input delay nk supported by the regressor history.
 pub const MAX_DELAY: usize = 8;
 
-use crate::fixed::SignalI16F16;
+use crate::num::fixed::SignalI16F16;
 
 /// Shifts `x` into the front of `lags` (every element moves one place back) and returns the
 /// element that fell off the end (`x` itself for an empty array): `rotate_right(1)` and a store,

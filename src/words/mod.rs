@@ -13,7 +13,7 @@
 //! `host-tests/tests/firmware_qemu.rs` (the firmware's words are up to date; truncated, extended
 //! and corrupted words are refused, never with a panic).
 //!
-//! The RLS settings are the one exception: [`crate::rls::RlsConfig`] has no raw constructor, so
+//! The RLS settings are the one exception: [`crate::ident::rls::RlsConfig`] has no raw constructor, so
 //! the words carry the [`RlsDesign`] (its `f64` fields as bits) and `take` builds it
 //! ([`RlsDesign::build`], comparisons and a few conversions: no `f64` division).
 //!
@@ -29,8 +29,8 @@
 //! | struct | its fields in declaration order (each type's `Words` impl lists them) |
 
 use crate::error::ConfigError;
-use crate::fixed::{ParamI12F20, SignalI16F16};
-use crate::rls::{AntiWindup, RlsDesign};
+use crate::ident::rls::{AntiWindup, RlsDesign};
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 
 /// Writes configuration words into a caller's buffer.
 #[derive(Debug)]

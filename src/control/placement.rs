@@ -3,7 +3,7 @@
 //! may use `f32` with [`libm`]; the per-sample path only applies the quantised [`ModelGains`].
 //!
 //! # Model
-//! The identifier (`crate::step`, [`crate::conditioning::Conditioning::DifferencedOutput`])
+//! The identifier (`crate::ident::step`, [`crate::ident::conditioning::Conditioning::DifferencedOutput`])
 //! estimates ARX on the velocity `Δy` (quanta per sample) against the drive u (fraction of full
 //! scale), the paper's first-order structure (eq. 1 with `A = 1 + a₁q⁻¹`, `B = b₁q⁻¹`) on the
 //! sled without its integrator:
@@ -34,7 +34,7 @@
 //! drive) or lies outside `[gain_min, gain_max]`, or when a gain does not fit the [`Gain`] format.
 
 use super::{ConfigError, Gain};
-use crate::fixed::ParamI12F20;
+use crate::num::fixed::ParamI12F20;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Closed-loop pole choices (z-plane radii, real).

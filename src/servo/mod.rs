@@ -6,9 +6,9 @@
 //! # One sample k (positions in quanta, u in full scale)
 //! ```text
 //! u(k)      = controller(r(k), y(k), report(k−1))           sledid::control::scheduled (supervisor inside)
-//! report(k) = identifier(y(k), u(k), r(k))                  ARX on velocity: sledid::step::step, N = 2
-//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    sledid::decimate, two channels
-//! every 2nd sample: Wiener(y_c↓2, u↓2)                      sledid::nonlinear, adapting in Settle/Hold only
+//! report(k) = identifier(y(k), u(k), r(k))                  ARX on velocity: sledid::ident::step::step, N = 2
+//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    sledid::ident::decimate, two channels
+//! every 2nd sample: Wiener(y_c↓2, u↓2)                      sledid::ident::nonlinear, adapting in Settle/Hold only
 //! ```
 //! The paper's conclusion is that different models belong to different parts of a step response:
 //! the velocity ARX model drives the seek/settle gains (it is what pole placement needs), while the
@@ -18,19 +18,21 @@
 //! The slow-rate gain redesign is *not* part of the step: when [`LoopState::redesign_pending`] the
 //! main loop calls [`LoopConfig::redesign`] (f32, outside the interrupt).
 
-use crate::boundary::{PositionI48F16, Sample};
-use crate::conditioning::Conditioning;
 use crate::control::{
     ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledState,
 };
-use crate::decimate::{DecimatorConfig, DecimatorState};
 use crate::error::ConfigError;
-use crate::fixed::SignalI16F16;
-use crate::linear::{Estimate, LinearDesign, Structure};
-use crate::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
-use crate::rls::{AntiWindup, RlsDesign};
-use crate::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+use crate::ident::conditioning::Conditioning;
+use crate::ident::decimate::{DecimatorConfig, DecimatorState};
+use crate::ident::linear::{Estimate, LinearDesign, Structure};
+use crate::ident::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
+use crate::ident::rls::{AntiWindup, RlsDesign};
+use crate::ident::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+use crate::num::boundary::{PositionI48F16, Sample};
+use crate::num::fixed::SignalI16F16;
 use crate::words::{WordReader, WordWriter, Words};
+
+pub mod hal;
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity).
 pub const VELOCITY_N: usize = 2;
@@ -49,7 +51,7 @@ pub struct LoopDesign {
 }
 
 /// The controller's identifier as the loop expects it: ARX(1, 1) on the velocity Δy against u
-/// (the first-order velocity model `sledid::control::design` places gains from), started from the
+/// (the first-order velocity model `sledid::control::placement` places gains from), started from the
 /// velocity model `prior` = (a, b), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100,
 /// outlier gate 40 quanta per sample (16 in a row).
 pub fn velocity_identifier(
@@ -263,7 +265,8 @@ impl LoopConfig {
                 st.set_enabled(out.region != Region::Seek);
                 let mut e = cfg.step(st, dy.y, du.y);
                 e.status |= dy.status | du.status;
-                e.status.set_if(crate::status::Status::SATURATED, sat);
+                e.status
+                    .set_if(crate::ident::status::Status::SATURATED, sat);
                 wiener = Some(e);
             }
         }

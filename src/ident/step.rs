@@ -2,8 +2,8 @@
 //! closed-loop twin and the tests all call, so what is tested is what runs.
 //!
 //! `step(config, state, sample) → StepOutput`: condition the raw sample (centre on the reference or
-//! difference, [`crate::conditioning::Conditioning`]), run the model estimator (ARX or OE,
-//! [`crate::linear`]; or one of the paper's nonlinear models, [`crate::nonlinear`] — anything that is
+//! difference, [`crate::ident::conditioning::Conditioning`]), run the model estimator (ARX or OE,
+//! [`crate::ident::linear`]; or one of the paper's nonlinear models, [`crate::ident::nonlinear`] — anything that is
 //! an [`Estimator`]), and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
 //!
 //! # Degradation on bad input (documented and tested in `host-tests/tests/faults.rs`)
@@ -13,15 +13,15 @@
 //!   [`Status::WARMUP`]).
 //! - Stuck sensor ([`StuckSensorDesign`]): when y has not changed for `samples` consecutive samples
 //!   while |u| ≥ `min_drive`, adaptation is held ([`Status::SENSOR_STUCK`]) until y moves again.
-//! - Spikes and reversed signs are the estimator's outlier gate ([`crate::rls::RlsDesign`]).
+//! - Spikes and reversed signs are the estimator's outlier gate ([`crate::ident::rls::RlsDesign`]).
 
-use crate::boundary::{PositionI48F16, Sample};
-use crate::conditioning::{Conditioning, ConditioningState};
 use crate::error::ConfigError;
-use crate::estimator::{Estimator, EstimatorDesign};
-use crate::fixed::{ParamI12F20, SignalI16F16};
-use crate::linear::{LinearConfig, LinearDesign, LinearState};
-use crate::status::Status;
+use crate::ident::conditioning::{Conditioning, ConditioningState};
+use crate::ident::estimator::{Estimator, EstimatorDesign};
+use crate::ident::linear::{LinearConfig, LinearDesign, LinearState};
+use crate::ident::status::Status;
+use crate::num::boundary::{PositionI48F16, Sample};
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Stuck-sensor detection: y unchanged for `samples` consecutive samples while |u| ≥ `min_drive`.
@@ -281,7 +281,7 @@ impl<const N: usize> IdentifierConfig<N, LinearConfig<N>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linear::Structure;
+    use crate::ident::linear::Structure;
 
     fn design() -> IdentifierDesign<2> {
         IdentifierDesign::new(

@@ -73,9 +73,9 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use crate::fixed::{SignalI16F16, sat_i32, shr_round_i64};
-use crate::status::Status;
-use crate::wide::mul_i32_wide;
+use crate::ident::status::Status;
+use crate::num::fixed::{SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::wide::mul_i32_wide;
 
 /// Number of taps of the filter.
 pub const TAPS: usize = 23;
@@ -121,7 +121,7 @@ impl DecimatorConfig {
     /// Takes one input sample; returns the decimated output after every second input.
     ///
     /// ```
-    /// use sledid::decimate::{DecimatorConfig, DecimatorState};
+    /// use sledid::ident::decimate::{DecimatorConfig, DecimatorState};
     /// use sledid::SignalI16F16;
     /// let cfg = DecimatorConfig::default();
     /// let mut st = DecimatorState::new();

@@ -3,7 +3,7 @@
 //! [`SignalI16F16`]. NaN, ±∞ and out-of-range values are rejected here with a [`BoundaryError`].
 
 use crate::error::{BoundaryError, ConfigError};
-use crate::fixed::SignalI16F16;
+use crate::num::fixed::SignalI16F16;
 
 /// An absolute position in sensor quanta, I48F16 in an `i64`: `value = raw / 2^16`, range ±1.4·10¹⁴
 /// quanta (±2.2·10⁸ m at 1.6 µm per track), step 2⁻¹⁶ quanta. Encoder counts convert exactly.
@@ -29,7 +29,7 @@ impl PositionI48F16 {
 
     /// `self − rhs` narrowed to a signal (I16F16), saturating; the flag is set when it saturated.
     pub const fn offset_from(self, rhs: Self, saturated: &mut bool) -> SignalI16F16 {
-        SignalI16F16::from_raw(crate::fixed::sat_i32(
+        SignalI16F16::from_raw(crate::num::fixed::sat_i32(
             self.0.saturating_sub(rhs.0),
             saturated,
         ))

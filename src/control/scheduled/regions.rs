@@ -23,8 +23,8 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use super::ConfigError;
-use crate::fixed::SignalI16F16;
+use crate::control::ConfigError;
+use crate::num::fixed::SignalI16F16;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// The part of a step response the controller is in.

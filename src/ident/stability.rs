@@ -11,9 +11,9 @@
 #![deny(clippy::float_arithmetic)]
 
 use crate::error::ConfigError;
-use crate::fixed::ParamI12F20;
-use crate::rls::RlsState;
-use crate::status::Status;
+use crate::ident::rls::RlsState;
+use crate::ident::status::Status;
+use crate::num::fixed::ParamI12F20;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Radius ρ of the allowed pole region, I12F20.

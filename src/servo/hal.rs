@@ -9,9 +9,9 @@
 //! either on one of two H-bridge channels ([`HBridge`]: the other one at 0 %) or on one channel
 //! plus a direction pin ([`PwmDirection`]).
 
-use super::scheduled::{ModelReport, ScheduledConfig, ScheduledOutput, ScheduledState};
-use crate::boundary::PositionI48F16;
-use crate::fixed::SignalI16F16;
+use crate::control::scheduled::{ModelReport, ScheduledConfig, ScheduledOutput, ScheduledState};
+use crate::num::boundary::PositionI48F16;
+use crate::num::fixed::SignalI16F16;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
 

@@ -1,6 +1,6 @@
 //! Signal conditioning: the raw sample becomes the signals the model is identified on.
 //!
-//! The estimator never sees absolute positions (part of the range analysis in [`crate::fixed`]):
+//! The estimator never sees absolute positions (part of the range analysis in [`crate::num::fixed`]):
 //! - [`Conditioning::CentredOnReference`]: the tracking error `y_c = y − r` (the paper works around
 //!   the settle point; with r constant this is the same linear model);
 //! - [`Conditioning::Differenced`]: increments `Δy(t) = y(t) − y(t−1)`, `Δu(t) = u(t) − u(t−1)` (same
@@ -14,9 +14,9 @@
 //! Differences are formed in the wide [`PositionI48F16`] format and narrowed to I16F16 afterwards,
 //! saturating and flagged, so absolute positions of millions of quanta are fine.
 
-use crate::boundary::{PositionI48F16, Sample};
 use crate::error::ConfigError;
-use crate::fixed::SignalI16F16;
+use crate::num::boundary::{PositionI48F16, Sample};
+use crate::num::fixed::SignalI16F16;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// How raw samples are turned into the signals the model is identified on.

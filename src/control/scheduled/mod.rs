@@ -1,6 +1,6 @@
 //! The gain-scheduled position controller: seek / settle / hold laws chosen per sample by
 //! [`RegionSelector`], settle and seek gains placed on-line from the identified model
-//! ([`super::design`]), an inverse input map for the identified static nonlinearity
+//! ([`super::placement`]), an inverse input map for the identified static nonlinearity
 //! ([`InverseInputMap`]), and a supervisor that falls back to the baseline PID
 //! ([`PidConfig`]) whenever the model is not trusted.
 //!
@@ -50,18 +50,21 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod regions;
+pub mod supervisor;
+
 use super::compensation::InverseInputMap;
-use super::design::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 use super::pid::{PidConfig, PidDesign, PidState};
-use super::schedule::{Region, RegionDesign, RegionSelector};
-pub use super::supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
+use super::placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 use super::{
     ConfigError, ControlFlags, LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64,
 };
-use crate::boundary::PositionI48F16;
-use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
-use crate::status::Status;
+use crate::ident::status::Status;
+use crate::num::boundary::PositionI48F16;
+use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::words::{WordReader, WordWriter, Words};
+use regions::{Region, RegionDesign, RegionSelector};
+pub use supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,7 +88,7 @@ pub struct ScheduledDesign {
     /// Inverse of the identified static input map, if any.
     pub compensation: Option<InverseInputMap>,
     /// Inverse of the identified Wiener output map `m(x) = x + w·tanh(a·x + c)` (quanta, centred on
-    /// the reference, as the Wiener model of [`crate::nonlinear`] is identified in `sled_loop`):
+    /// the reference, as the Wiener model of [`crate::ident::nonlinear`] is identified in `sled_loop`):
     /// in Settle the P and I terms act on the linear state x̂ = m⁻¹(y − r), not on the measured
     /// error, so the gains placed on the linear model meet a linear plant. Region selection, the
     /// hold band and the derivative stay on the measured position (quanta of the sensor).
@@ -159,7 +162,7 @@ impl ScheduledDesign {
                 b: b as f32,
             };
             // The supervisor's checks apply to the prior too.
-            super::design::reduce(
+            super::placement::reduce(
                 &[
                     ParamI12F20::from_f64(-a).map_err(|_| ConfigError::InitialModel(a))?,
                     ParamI12F20::from_f64(b).map_err(|_| ConfigError::InitialModel(b))?,
@@ -168,7 +171,7 @@ impl ScheduledDesign {
                 &self.supervisor,
             )
             .map_err(|_| ConfigError::InitialModel(a))?;
-            config.gains = super::design::place(model, &self.placement)
+            config.gains = super::placement::place(model, &self.placement)
                 .map_err(|_| ConfigError::InitialModel(b))?;
             config.fallback = false;
         }
@@ -325,8 +328,8 @@ impl ScheduledConfig {
             return Redesign::Skipped;
         }
         state.trusted_updates = 0;
-        let designed = super::design::reduce(theta, self.na, &self.supervisor)
-            .and_then(|m| super::design::place(m, &self.placement).map(|g| (m, g)));
+        let designed = super::placement::reduce(theta, self.na, &self.supervisor)
+            .and_then(|m| super::placement::place(m, &self.placement).map(|g| (m, g)));
         match designed {
             Ok((model, gains)) => {
                 self.gains = gains;

@@ -7,7 +7,7 @@
 //! ∂g/∂w = t    ∂g/∂aᵢ = w·s·xᵢ    ∂g/∂c = w·s    ∂g/∂xᵢ = w·s·aᵢ
 //! ```
 //!
-//! # Formats (as [`crate::neuron`], whose tanh table this uses)
+//! # Formats (as [`crate::ident::neuron`], whose tanh table this uses)
 //! | quantity | format | note |
 //! |---|---|---|
 //! | xᵢ, g, ∂g/∂w, ∂g/∂aᵢ, ∂g/∂c | I16F16 | ∂g/∂aᵢ saturates (flagged) |
@@ -17,14 +17,14 @@
 //! | w·s, ∂g/∂xᵢ | I12F20 | ∂g/∂xᵢ feeds the gradient filter; saturates (flagged) |
 //!
 //! For K = 1 the value and the parameter derivatives are bit-identical to
-//! [`crate::neuron::Neuron::eval`]; ∂g/∂x is kept in I12F20 instead of I16F16 because it is a
+//! [`crate::ident::neuron::Neuron::eval`]; ∂g/∂x is kept in I12F20 instead of I16F16 because it is a
 //! coefficient of the sensitivity recursion, not a signal.
 
 #![deny(clippy::float_arithmetic)]
 
-use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
-use crate::neuron::{ARG_FRAC_BITS, ONE_I2F30, TANH_FRAC_BITS, tanh_i2f30};
-use crate::wide::mul_i32_wide;
+use crate::ident::neuron::{ARG_FRAC_BITS, ONE_I2F30, TANH_FRAC_BITS, tanh_i2f30};
+use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::wide::mul_i32_wide;
 
 /// A K-input neuron evaluated at one point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,7 +94,7 @@ pub fn eval<const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::neuron::Neuron;
+    use crate::ident::neuron::Neuron;
 
     fn p(x: f64) -> ParamI12F20 {
         ParamI12F20::from_f64(x).unwrap()

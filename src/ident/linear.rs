@@ -17,12 +17,12 @@
 //! and otherwise undone ([`Status::PROJECTED`]); P keeps its update (Ljung 1999, §11.3).
 
 use crate::error::ConfigError;
-use crate::estimator::{Estimator, EstimatorDesign};
-use crate::fixed::{ParamI12F20, SignalI16F16};
-use crate::regressor::{History, MAX_DELAY};
-use crate::rls::{RlsConfig, RlsDesign, RlsState};
-use crate::stability::{PoleRadius, project_denominator};
-use crate::status::Status;
+use crate::ident::estimator::{Estimator, EstimatorDesign};
+use crate::ident::regressor::{History, MAX_DELAY};
+use crate::ident::rls::{RlsConfig, RlsDesign, RlsState};
+use crate::ident::stability::{PoleRadius, project_denominator};
+use crate::ident::status::Status;
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Which linear structure is estimated.
@@ -225,8 +225,8 @@ impl<const N: usize> LinearConfig<N> {
                 let prev = lag.get(k).map_or(0, |x| i64::from(x.raw()));
                 acc_i28f36 = acc_i28f36.saturating_sub(i64::from(f.raw()) * prev);
             }
-            let raw = crate::fixed::shr_round_i64(acc_i28f36, 20);
-            *p = SignalI16F16::from_raw(crate::fixed::sat_i32(raw, &mut sat));
+            let raw = crate::num::fixed::shr_round_i64(acc_i28f36, 20);
+            *p = SignalI16F16::from_raw(crate::num::fixed::sat_i32(raw, &mut sat));
         }
         st.psi_lag.swap(0, 1);
         if let Some(first) = st.psi_lag.first_mut() {

@@ -69,9 +69,9 @@
 #![deny(clippy::float_arithmetic)]
 
 use crate::error::ConfigError;
-use crate::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
-use crate::status::Status;
-use crate::wide::{mul_i32_wide, mul_u32_wide};
+use crate::ident::status::Status;
+use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::wide::{mul_i32_wide, mul_u32_wide};
 
 /// Fraction bits of the tanh argument z (I8F24).
 pub const ARG_FRAC_BITS: u32 = 24;
@@ -131,7 +131,7 @@ pub static TANH_TABLE_I2F30: [i32; TABLE_LEN] = [
 /// Max |error| 9.4·10⁻⁵ (see the module's *Accuracy*). Monotonic non-decreasing in z.
 ///
 /// ```
-/// use sledid::neuron::{tanh_i2f30, ONE_I2F30};
+/// use sledid::ident::neuron::{tanh_i2f30, ONE_I2F30};
 /// assert_eq!(tanh_i2f30(0), 0);
 /// assert_eq!(tanh_i2f30(9 << 24), ONE_I2F30);
 /// assert_eq!(tanh_i2f30(i32::MIN), -ONE_I2F30);
@@ -195,7 +195,7 @@ impl NeuronDesign {
     /// [`ConfigError::InitialModel`] with the first of w, a, c that is not finite or outside ±2048.
     ///
     /// ```
-    /// use sledid::neuron::NeuronDesign;
+    /// use sledid::ident::neuron::NeuronDesign;
     /// let n = NeuronDesign::initial(1.0).build().unwrap();
     /// assert_eq!(n.w().raw(), 0);
     /// assert!(NeuronDesign { w: 1.0, a: f64::NAN, c: 0.0 }.build().is_err());
@@ -338,7 +338,7 @@ impl<const M: usize> HiddenLayerDesign<M> {
     /// |z| ≤ 1.5 on the range and no two neurons are alike.
     ///
     /// ```
-    /// use sledid::neuron::HiddenLayerDesign;
+    /// use sledid::ident::neuron::HiddenLayerDesign;
     /// let d = HiddenLayerDesign::<2>::initial(1.0);
     /// assert_eq!((d.neurons[0].c, d.neurons[1].c), (-0.5, 0.5));
     /// let net = d.build().unwrap();

@@ -24,7 +24,7 @@
 //! # Cost
 //! `mul_trunc` is one 32×32→64 multiply and a one-bit normalisation; `add_trunc` an alignment shift and a
 //! leading-zero count; `recip` a 256-entry table lookup and two Newton steps (no division
-//! instruction, no 64-bit division). Multiplies and bit counts go through [`crate::wide`], so Armv6-M
+//! instruction, no 64-bit division). Multiplies and bit counts go through [`crate::num::wide`], so Armv6-M
 //! does not call `__aeabi_lmul`/`__clzsi2`.
 
 /// Smallest exponent; values below `2^(EXP_MIN+31)` flush to the smallest positive number or zero.
@@ -85,7 +85,7 @@ impl Dyadic {
         if m == 0 {
             return Self::ZERO;
         }
-        let lz = (64 - crate::wide::bit_len_u64(m)) as u32;
+        let lz = (64 - crate::num::wide::bit_len_u64(m)) as u32;
         let top = ((m << lz) >> 32) as u32;
         Self::clamped(top, exp.saturating_add(32 - lz as i32))
     }
@@ -96,7 +96,7 @@ impl Dyadic {
         if m == 0 {
             return Self::ZERO;
         }
-        let lz = (32 - crate::wide::bit_len_u64(u64::from(m))) as u32;
+        let lz = (32 - crate::num::wide::bit_len_u64(u64::from(m))) as u32;
         Self::clamped(m << lz, exp.saturating_sub(lz as i32))
     }
 
@@ -139,7 +139,7 @@ impl Dyadic {
             return Self::ZERO;
         }
         // Both mantissas in [2^31, 2^32): the product is in [2^62, 2^64), one bit to normalise.
-        let p = crate::wide::mul_u32_wide(self.mant, rhs.mant);
+        let p = crate::num::wide::mul_u32_wide(self.mant, rhs.mant);
         // Exponents are clamped to ±2^14 by every constructor: the sum cannot overflow.
         let e = self.exp + rhs.exp;
         if p >> 63 != 0 {
@@ -214,7 +214,7 @@ impl Dyadic {
         self.mant < rhs.mant
     }
 
-    /// `1 / self` to within one unit of the kept bits ([`crate::wide::recip_q63`]: table seed and two
+    /// `1 / self` to within one unit of the kept bits ([`crate::num::wide::recip_q63`]: table seed and two
     /// Newton steps, no division); the reciprocal of zero saturates.
     #[must_use]
     #[inline]
@@ -223,7 +223,7 @@ impl Dyadic {
             return Self::MAX;
         }
         // 1/(m·2^e) = (2^63/m)·2^(−63−e).
-        Self::from_u64(crate::wide::recip_q63(self.mant), -63 - self.exp)
+        Self::from_u64(crate::num::wide::recip_q63(self.mant), -63 - self.exp)
     }
 
     /// The value as an unsigned U0F32 fraction, saturating at `u32::MAX` for values ≥ 1.

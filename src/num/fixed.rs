@@ -13,10 +13,10 @@
 //! | position y, reference r, error r − y | [`SignalI16F16`] | sensor quanta (tracks) | ±32,768 | 1.5·10⁻⁵ |
 //! | drive u | [`SignalI16F16`] | fraction of full scale (u / u_max) | ±32,768 (±1 in spec) | 1.5·10⁻⁵ |
 //! | model parameter θ | [`ParamI12F20`] | quanta per unit of regressor | ±2,048 | 9.5·10⁻⁷ |
-//! | covariance factor U (off-diagonal) | `i32` I8F24 in [`crate::rls`] | ratio of parameter units | ±128 | 6·10⁻⁸ |
-//! | covariance factor D, α, 1/α | [`crate::dyadic::Dyadic`] | parameter² per signal² | 2^±16384 | 2⁻³² relative |
+//! | covariance factor U (off-diagonal) | `i32` I8F24 in [`crate::ident::rls`] | ratio of parameter units | ±128 | 6·10⁻⁸ |
+//! | covariance factor D, α, 1/α | [`crate::num::dyadic::Dyadic`] | parameter² per signal² | 2^±16384 | 2⁻³² relative |
 //!
-//! Positions enter as counts *relative to the reference or differenced* (see [`crate::regressor`]):
+//! Positions enter as counts *relative to the reference or differenced* (see [`crate::ident::regressor`]):
 //! the findings of the float64 study are that regressors in absolute counts give cond(ΦᵀΦ) ≈ 3·10¹¹ and
 //! break 32-bit arithmetic, while centred ones keep float32 within 3·10⁻⁴ of float64. Absolute
 //! positions therefore never reach the estimator; their range is the boundary's problem, where
