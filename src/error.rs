@@ -129,6 +129,8 @@ pub enum ConfigError {
         /// Index of the offending word.
         at: usize,
     },
+    /// Servo: the redesign hand-over latency L (samples from a request to its adoption) must be ≥ 1.
+    HandoverLatency(u16),
 }
 
 impl fmt::Display for ConfigError {
@@ -226,6 +228,10 @@ impl fmt::Display for ConfigError {
             Self::Words { at } => write!(
                 f,
                 "configuration words: word {at} is missing, invalid or fails its check"
+            ),
+            Self::HandoverLatency(l) => write!(
+                f,
+                "redesign hand-over latency = {l} samples: must be at least 1"
             ),
         }
     }

@@ -23,11 +23,11 @@
 //!   of a faster-than-reference seek, which the reference does not ask for).
 
 use serde::Serialize;
-use sledid::control::{InverseInputMap, Redesign, Region, ScheduledDesign, ScheduledFlags};
+use sledid::control::{ControlFlags, InverseInputMap, Redesign, Region, ScheduledDesign};
 use sledid::ident::linear::Estimate;
 use sledid::ident::nonlinear::NonlinearDesign;
 use sledid::ident::step::IdentifierDesign;
-use sledid::servo::{LoopConfig, LoopDesign, LoopState, WIENER_N};
+use sledid::servo::{ServoDesign, SledServo, SledServoState, WIENER_N};
 use std::path::Path;
 
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
@@ -93,12 +93,12 @@ pub fn scheduled_design_for(
 /// would before the next interrupt.
 pub struct ScheduledLoop {
     /// The loop configuration (its controller gains swapped by redesigns).
-    pub config: LoopConfig,
+    pub config: SledServo,
     /// The loop state.
-    pub state: LoopState,
+    pub state: SledServoState,
     u_full_scale_v: f64,
     /// Per sample: the region and flags.
-    pub trace: Vec<(Region, ScheduledFlags)>,
+    pub trace: Vec<(Region, ControlFlags)>,
     /// Every redesign outcome.
     pub redesigns: Vec<Redesign>,
     /// The Wiener estimator's output of the last sample (every second sample).
@@ -117,10 +117,11 @@ impl ScheduledLoop {
         identifier: &IdentifierDesign<2>,
         wiener: Option<NonlinearDesign<WIENER_N>>,
     ) -> Result<Self, String> {
-        let config = LoopDesign {
+        let config = ServoDesign {
             controller: *design,
             velocity: *identifier,
             wiener,
+            handover_latency_samples: 1,
         }
         .build()
         .map_err(|e| e.to_string())?;
@@ -136,7 +137,7 @@ impl ScheduledLoop {
 
     /// The identifier's θ now.
     pub fn theta(&self) -> [f64; 2] {
-        self.state.velocity().model().theta().map(|p| p.to_f64())
+        self.state.identifier().model().theta().map(|p| p.to_f64())
     }
 }
 
@@ -147,9 +148,9 @@ impl SledController for ScheduledLoop {
             position_from_quanta(y_counts),
         );
         let out = self.config.step(&mut self.state, r, y);
-        if self.state.redesign_pending() {
-            let outcome = self.config.redesign(&mut self.state);
-            self.redesigns.push(outcome);
+        // The background's turn between two samples (the hand-over adopts it at k + L).
+        if let Some(design) = self.config.run_background(&mut self.state) {
+            self.redesigns.push(design.outcome);
         }
         self.trace.push((out.region, out.control));
         self.last_wiener = out.wiener;
@@ -268,7 +269,7 @@ pub struct ControlRun {
     /// The twin with its recording.
     pub twin: Twin,
     /// Per sample region and flags (scheduled only).
-    pub trace: Vec<(Region, ScheduledFlags)>,
+    pub trace: Vec<(Region, ControlFlags)>,
     /// The summary.
     pub summary: ControlSummary,
 }
@@ -350,7 +351,7 @@ pub fn run_with(
 
 fn summarize(
     twin: &Twin,
-    trace: &[(Region, ScheduledFlags)],
+    trace: &[(Region, ControlFlags)],
     redesigns: &[Redesign],
     kind: ControllerKind,
     seed: u64,
@@ -394,7 +395,7 @@ fn summarize(
     let mut fallbacks = 0;
     let mut was = false;
     for (_, f) in trace {
-        let now = f.contains(ScheduledFlags::FALLBACK);
+        let now = f.contains(ControlFlags::FALLBACK);
         fallbacks += usize::from(now && !was);
         was = now;
     }
@@ -421,7 +422,7 @@ fn summarize(
         fallbacks,
         fallback_samples: trace
             .iter()
-            .filter(|(_, f)| f.contains(ScheduledFlags::FALLBACK))
+            .filter(|(_, f)| f.contains(ControlFlags::FALLBACK))
             .count(),
         redesigns: counts,
         u_peak_v: samples.iter().fold(0.0, |m: f64, s| m.max(s.u_v.abs())),

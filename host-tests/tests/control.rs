@@ -5,7 +5,7 @@
 use proptest::prelude::*;
 use sledid::PositionI48F16;
 use sledid::Scaling;
-use sledid::control::{ControlFlags, DerivativeOn, PidDesign, PidState};
+use sledid::control::{DerivativeOn, PidDesign, PidFlags, PidState};
 use sledid_host::recording::{ReaderOptions, read_all};
 use sledid_host::reference::control::{
     EMPS_QUANTUM_M, EMPS_U_FULL_SCALE_V, FixedPid, PidF64, baseline_design, emps_design,
@@ -425,8 +425,8 @@ fn enable_is_bumpless() {
     c.set_manual_output_v(0.05);
     for _ in 0..20 {
         assert!((c.step_positions(r, y) - 0.05).abs() < 1e-4);
-        assert!(c.last_flags().contains(ControlFlags::MANUAL));
-        assert!(!c.last_flags().contains(ControlFlags::TRACKING_LIMITED));
+        assert!(c.last_flags().contains(PidFlags::MANUAL));
+        assert!(!c.last_flags().contains(PidFlags::TRACKING_LIMITED));
     }
     c.state_mut().set_enabled(true);
     let first = c.step_positions(r, y);

@@ -7,10 +7,14 @@ use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
 use embedded_hal::pwm::{ErrorType, SetDutyCycle};
 use proptest::prelude::*;
 use sledid::Status;
-use sledid::control::{ModelReport, Redesign, Region, Rejection, ScheduledDesign, ScheduledFlags};
+use sledid::control::{
+    ControlFlags, Controller, ModelReport, Redesign, Region, Rejection, ScheduledConfig,
+    ScheduledDesign, ScheduledState,
+};
 use sledid::ident::step::step;
 use sledid::num::boundary::{PositionI48F16, Sample};
 use sledid::num::fixed::{ParamI12F20, SignalI16F16};
+use sledid::servo::ServoDesign;
 use sledid::servo::hal::{ControlLoop, HBridge, PositionSensor, PwmDirection};
 use sledid_host::control_eval::{
     ControlSummary, ControllerKind, Perturbation, identifier_design, perturbed, run,
@@ -100,8 +104,8 @@ fn fixed_point_matches_float64_in_closed_loop() {
         }
         let compensated = compensated || output_map;
         let config0 = design.build().unwrap();
-        let mut config = config0;
-        let mut state = config.new_state();
+        let config = config0;
+        let mut state = Controller::new_state(&config);
         let mut reference = ScheduledF64::new(&design).unwrap();
         let id_cfg = identifier_design(design.prior_model.unwrap())
             .build()
@@ -115,10 +119,10 @@ fn fixed_point_matches_float64_in_closed_loop() {
                 position_from_quanta(r_counts),
                 position_from_quanta(y_counts),
             );
-            let out = config.step(&mut state, r, y, &report);
+            let out = config.step_law(&mut state, r, y, &report);
             let (u64, region, fallback) =
                 reference.step(r_counts, y_counts, report.status, report.eps.to_f64());
-            if region != out.region || fallback != out.flags.contains(ScheduledFlags::FALLBACK) {
+            if region != out.region || fallback != out.flags.contains(ControlFlags::FALLBACK) {
                 mismatches += 1;
             } else {
                 let err = (out.u.to_f64() - u64).abs();
@@ -131,8 +135,9 @@ fn fixed_point_matches_float64_in_closed_loop() {
                 status: id.status,
                 eps: id.eps,
             };
-            if state.redesign_pending() {
-                config.redesign(&mut state, &id.theta);
+            if let Some(job) = config.redesign_job(&mut state, &id.theta) {
+                let design = Controller::redesign(&config, &job);
+                config.adopt(&mut state, &design);
             }
             if reference.redesign_pending() {
                 reference.redesign(&id.theta.map(|p| p.to_f64()));
@@ -163,7 +168,7 @@ fn region_transfers_are_bumpless() {
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
     let config = design.build().unwrap();
-    let mut state = config.new_state();
+    let mut state = Controller::new_state(&config);
     let (mut previous_u, mut previous_region) = (SignalI16F16::ZERO, Region::Seek);
     let (mut transfers, mut limited) = (0, 0);
     let mut twin = Twin::new(
@@ -178,7 +183,7 @@ fn region_transfers_are_bumpless() {
     )
     .unwrap();
     let mut controller = |r: f64, y: f64| {
-        let out = config.step(
+        let out = config.step_law(
             &mut state,
             position_from_quanta(r),
             position_from_quanta(y),
@@ -186,12 +191,12 @@ fn region_transfers_are_bumpless() {
         );
         let bumpless_kind = out.region != Region::Hold
             && previous_region != Region::Hold
-            && !out.flags.contains(ScheduledFlags::FIRST_SAMPLE);
-        if out.flags.contains(ScheduledFlags::REGION_CHANGED) && bumpless_kind {
+            && !out.flags.contains(ControlFlags::FIRST_SAMPLE);
+        if out.flags.contains(ControlFlags::REGION_CHANGED) && bumpless_kind {
             transfers += 1;
-            if out.flags.contains(ScheduledFlags::TRANSFER_LIMITED) {
+            if out.flags.contains(ControlFlags::TRANSFER_LIMITED) {
                 limited += 1;
-            } else if !out.flags.contains(ScheduledFlags::OUTPUT_SATURATED) {
+            } else if !out.flags.contains(ControlFlags::OUTPUT_SATURATED) {
                 assert!(
                     (out.u.raw() - previous_u.raw()).abs() <= 1,
                     "{previous_region:?} → {:?}: {:?} → {:?}",
@@ -224,42 +229,42 @@ fn theta(a: f64, b: f64) -> [ParamI12F20; 2] {
 #[test]
 fn supervisor_falls_back_and_recovers() {
     let design = scheduled_design(&TwinParams::default()).unwrap();
-    let mut config = design.build().unwrap();
-    let mut state = config.new_state();
+    let config = design.build().unwrap();
+    let mut state = Controller::new_state(&config);
     let r = PositionI48F16::from_counts(5);
     let y = PositionI48F16::from_counts(0);
     let good = ModelReport {
         status: Status::UPDATED,
         eps: SignalI16F16::from_f64(0.1).unwrap(),
     };
-    let o = config.step(&mut state, r, y, &good);
-    assert!(!o.flags.contains(ScheduledFlags::FALLBACK));
+    let o = config.step_law(&mut state, r, y, &good);
+    assert!(!o.flags.contains(ControlFlags::FALLBACK));
     let u_before = o.u;
     // An outlier: baseline at once, starting from the last output.
     let outlier = ModelReport {
         status: Status::OUTLIER,
         ..good
     };
-    let o = config.step(&mut state, r, y, &outlier);
+    let o = config.step_law(&mut state, r, y, &outlier);
     assert!(
         o.flags
-            .contains(ScheduledFlags::FALLBACK | ScheduledFlags::MODEL_UNTRUSTED)
+            .contains(ControlFlags::FALLBACK | ControlFlags::MODEL_UNTRUSTED)
     );
     assert_eq!(o.u, u_before);
     // It stays distrusted for untrusted_hold_samples, then the model gains return.
     for _ in 1..design.supervisor.untrusted_hold_samples {
         assert!(
             config
-                .step(&mut state, r, y, &good)
+                .step_law(&mut state, r, y, &good)
                 .flags
-                .contains(ScheduledFlags::FALLBACK)
+                .contains(ControlFlags::FALLBACK)
         );
     }
     assert!(
         !config
-            .step(&mut state, r, y, &good)
+            .step_law(&mut state, r, y, &good)
             .flags
-            .contains(ScheduledFlags::FALLBACK)
+            .contains(ControlFlags::FALLBACK)
     );
     // A large prediction error distrusts the model while the running mean stays high.
     let big = ModelReport {
@@ -270,58 +275,58 @@ fn supervisor_falls_back_and_recovers() {
     for _ in 0..64 {
         fell_back += usize::from(
             config
-                .step(&mut state, r, y, &big)
+                .step_law(&mut state, r, y, &big)
                 .flags
-                .contains(ScheduledFlags::FALLBACK),
+                .contains(ControlFlags::FALLBACK),
         );
     }
     assert!(fell_back > 32, "{fell_back}");
     for _ in 0..400 {
-        config.step(&mut state, r, y, &good);
+        config.step_law(&mut state, r, y, &good);
     }
     assert!(
         !config
-            .step(&mut state, r, y, &good)
+            .step_law(&mut state, r, y, &good)
             .flags
-            .contains(ScheduledFlags::FALLBACK)
+            .contains(ControlFlags::FALLBACK)
     );
     // Wrong sign, unstable pole: refused, fallback latched.
     assert_eq!(
-        config.redesign(&mut state, &theta(0.83, -20.0)),
+        redesign(&config, &mut state, &theta(0.83, -20.0)),
         Redesign::Rejected(Rejection::GainSign(-20.0))
     );
-    assert!(config.fallback());
+    assert!(state.fallback());
     assert!(
         config
-            .step(&mut state, r, y, &good)
+            .step_law(&mut state, r, y, &good)
             .flags
-            .contains(ScheduledFlags::FALLBACK)
+            .contains(ControlFlags::FALLBACK)
     );
     assert!(matches!(
-        config.redesign(&mut state, &theta(1.02, 20.0)),
+        redesign(&config, &mut state, &theta(1.02, 20.0)),
         Redesign::Skipped | Redesign::Rejected(Rejection::PoleOutside(_))
     ));
-    config.step(&mut state, r, y, &good);
+    config.step_law(&mut state, r, y, &good);
     assert!(matches!(
-        config.redesign(&mut state, &theta(1.02, 20.0)),
+        redesign(&config, &mut state, &theta(1.02, 20.0)),
         Redesign::Rejected(Rejection::PoleOutside(_))
     ));
     // Without a trusted update since the last design nothing is recomputed.
     assert_eq!(
-        config.redesign(&mut state, &theta(0.8, 20.0)),
+        redesign(&config, &mut state, &theta(0.8, 20.0)),
         Redesign::Skipped
     );
-    config.step(&mut state, r, y, &good);
+    config.step_law(&mut state, r, y, &good);
     assert!(matches!(
-        config.redesign(&mut state, &theta(0.8, 20.0)),
+        redesign(&config, &mut state, &theta(0.8, 20.0)),
         Redesign::Applied(_)
     ));
-    assert!(!config.fallback());
+    assert!(!state.fallback());
     assert!(
         !config
-            .step(&mut state, r, y, &good)
+            .step_law(&mut state, r, y, &good)
             .flags
-            .contains(ScheduledFlags::FALLBACK)
+            .contains(ControlFlags::FALLBACK)
     );
 }
 
@@ -348,11 +353,11 @@ fn reversed_sensor_is_flagged_as_fallback() {
     }
     let before = lp.trace[..1500]
         .iter()
-        .filter(|(_, f)| f.contains(ScheduledFlags::FALLBACK))
+        .filter(|(_, f)| f.contains(ControlFlags::FALLBACK))
         .count();
     let first_after = lp.trace[1500..]
         .iter()
-        .position(|(_, f)| f.contains(ScheduledFlags::FALLBACK));
+        .position(|(_, f)| f.contains(ControlFlags::FALLBACK));
     println!(
         "fallback samples before: {before}, first fallback {first_after:?} samples after the reversal"
     );
@@ -415,62 +420,63 @@ impl PositionSensor for FakeSensor {
     }
 }
 
-/// The controller behind embedded-hal: an H-bridge of two fake PWM channels and a PWM + direction
+/// The servo behind embedded-hal: an H-bridge of two fake PWM channels and a PWM + direction
 /// pin; a failed reading holds the last position and is reported as rejected (fallback).
 #[test]
 fn embedded_hal_adapter_drives_fake_pwm() {
-    let design = scheduled_design(&TwinParams::default()).unwrap();
-    let config = design.build().unwrap();
-    let mut state = config.new_state();
+    let params = TwinParams::default();
+    let design = scheduled_design(&params).unwrap();
+    let servo = ServoDesign::new(design).build().unwrap();
+    let mut state = servo.new_state();
     let bridge = HBridge {
         forward: FakePwm::default(),
         reverse: FakePwm::default(),
     };
-    let mut lp = ControlLoop::new(FakeSensor(vec![Ok(0), Ok(0), Err(()), Ok(-30)]), bridge, 0);
+    let mut lp = ControlLoop::new(FakeSensor(vec![Ok(0), Ok(0), Err(()), Ok(-30)]), bridge);
     let r = PositionI48F16::from_counts(40);
-    let t = lp
-        .tick(&config, &mut state, r, &ModelReport::default())
-        .unwrap();
-    assert!(t.sensor_ok && t.output.u.raw() > 0);
-    let expected = (t.output.u.to_f64().min(1.0) * 1000.0).round() as u16;
+    let t = lp.tick(&servo, &mut state, r).unwrap();
+    assert!(!t.identifier.status.contains(Status::INPUT_REJECTED) && t.u.raw() > 0);
+    let expected = (t.u.to_f64().min(1.0) * 1000.0).round() as u16;
     assert_eq!(lp.drive.forward.duty, expected);
     assert_eq!(lp.drive.reverse.duty, 0);
-    lp.tick(&config, &mut state, r, &ModelReport::default())
-        .unwrap();
-    let t = lp
-        .tick(&config, &mut state, r, &ModelReport::default())
-        .unwrap();
-    assert!(!t.sensor_ok && t.y == PositionI48F16::from_counts(0));
-    assert!(t.output.flags.contains(ScheduledFlags::FALLBACK));
+    lp.tick(&servo, &mut state, r).unwrap();
+    let t = lp.tick(&servo, &mut state, r).unwrap();
+    assert!(t.identifier.status.contains(Status::INPUT_REJECTED));
+    assert!(t.control.contains(ControlFlags::FALLBACK));
     // Reference below the position: reverse channel.
-    let mut state = config.new_state();
+    let mut state = servo.new_state();
     let t = lp
-        .tick(
-            &config,
-            &mut state,
-            PositionI48F16::from_counts(-80),
-            &ModelReport::default(),
-        )
+        .tick(&servo, &mut state, PositionI48F16::from_counts(-80))
         .unwrap();
-    assert!(t.output.u.raw() < 0);
+    assert!(t.u.raw() < 0);
     assert_eq!(lp.drive.forward.duty, 0);
     assert!(lp.drive.reverse.duty > 0);
     // PWM + direction pin.
-    let mut state = config.new_state();
+    let mut state = servo.new_state();
     let drive = PwmDirection {
         pwm: FakePwm::default(),
         direction: FakePin::default(),
     };
-    let mut lp = ControlLoop::new(FakeSensor(vec![Ok(10)]), drive, 0);
+    let mut lp = ControlLoop::new(FakeSensor(vec![Ok(10)]), drive);
     let t = lp
-        .tick(
-            &config,
-            &mut state,
-            PositionI48F16::from_counts(0),
-            &ModelReport::default(),
-        )
+        .tick(&servo, &mut state, PositionI48F16::from_counts(0))
         .unwrap();
-    assert!(t.output.u.raw() < 0 && !lp.drive.direction.high && lp.drive.pwm.duty > 0);
+    assert!(t.u.raw() < 0 && !lp.drive.direction.high && lp.drive.pwm.duty > 0);
+}
+
+/// The old `redesign(&mut self, …)` in one call: ask, take the job, redesign, adopt.
+fn redesign(
+    config: &ScheduledConfig,
+    state: &mut ScheduledState,
+    theta: &[ParamI12F20],
+) -> Redesign {
+    state.request_redesign();
+    let Some(job) = config.redesign_job(state, theta) else {
+        unreachable!("a requested redesign gives a job")
+    };
+    let design = Controller::redesign(config, &job);
+    config.adopt(state, &design);
+    design.outcome
 }
 
 fn arb_position() -> impl Strategy<Value = PositionI48F16> {
@@ -491,15 +497,15 @@ proptest! {
         a in -2.0f64..2.0, b in -100.0f64..100.0,
     ) {
         let design: ScheduledDesign = scheduled_design(&TwinParams::default()).unwrap();
-        let mut config = design.build().unwrap();
-        let mut state = config.new_state();
+        let config = design.build().unwrap();
+        let mut state = Controller::new_state(&config);
         let u_max = config.baseline().u_limit().raw();
-        for (r, y, status, eps, redesign) in inputs {
+        for (r, y, status, eps, redesign_now) in inputs {
             let report = ModelReport { status: Status::from_bits(status), eps: SignalI16F16::from_raw(eps) };
-            let o = config.step(&mut state, r, y, &report);
+            let o = config.step_law(&mut state, r, y, &report);
             prop_assert!(o.u.raw().abs() <= u_max);
-            if redesign {
-                config.redesign(&mut state, &theta(a, b));
+            if redesign_now {
+                redesign(&config, &mut state, &theta(a, b));
             }
         }
     }

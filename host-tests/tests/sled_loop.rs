@@ -109,13 +109,14 @@ fn wiener_beside_the_controller_observes_without_disturbing() {
 #[test]
 fn shadow_mode_identifies_from_the_applied_drive() {
     use sledid::PositionI48F16;
-    use sledid::servo::LoopDesign;
+    use sledid::servo::ServoDesign;
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
-    let loop_design = LoopDesign {
+    let loop_design = ServoDesign {
         controller: design,
         velocity: identifier_design(design.prior_model.unwrap()),
         wiener: Some(wiener()),
+        handover_latency_samples: 1,
     };
     let cfg = loop_design.build().unwrap();
     let (mut normal, mut shadow_same, mut shadow_other) =
@@ -128,20 +129,20 @@ fn shadow_mode_identifies_from_the_applied_drive() {
         let b = cfg.step_shadow(&mut shadow_same, r, y, a.u);
         assert_eq!(a, b, "sample {k}");
         let c = cfg.step_shadow(&mut shadow_other, r, y, sledid::SignalI16F16::ZERO);
-        differ += usize::from(c.velocity.theta != a.velocity.theta);
+        differ += usize::from(c.identifier.theta != a.identifier.theta);
     }
     assert!(differ > 0);
 }
 
 /// The configuration words (`sledid::words`) of a design with every optional part: both input
 /// maps, a stuck-sensor check, a pole radius on the velocity model, the Wiener model. The largest
-/// word count (181, within `LOOP_WORDS_MAX`), decoded into the configuration `build` gives, and
+/// word count (182, within `SERVO_WORDS_MAX`), decoded into the configuration `build` gives, and
 /// refused by a buffer one word short.
 #[test]
 fn configuration_words_of_a_full_design_round_trip() {
     use sledid::ConfigError;
     use sledid::ident::step::StuckSensorDesign;
-    use sledid::servo::{LOOP_WORDS_MAX, LoopConfig, LoopDesign};
+    use sledid::servo::{SERVO_WORDS_MAX, ServoDesign, SledServo};
     use sledid_host::control_eval::physical_model;
     use sledid_host::twin::PlantParams;
 
@@ -157,16 +158,17 @@ fn configuration_words_of_a_full_design_round_trip() {
         min_drive: 0.05,
     });
     velocity.model.stability_margin = Some(0.0);
-    let design = LoopDesign {
+    let design = ServoDesign {
         controller,
         velocity,
         wiener: Some(wiener()),
+        handover_latency_samples: 1,
     };
     let built = design.build().expect("the design builds");
-    let mut buf = [0u32; LOOP_WORDS_MAX];
+    let mut buf = [0u32; SERVO_WORDS_MAX];
     let n = design.to_words(&mut buf).expect("words");
-    assert_eq!(n, 181);
-    assert_eq!(LoopConfig::from_words(&buf[..n]), Ok(built));
+    assert_eq!(n, 182);
+    assert_eq!(SledServo::from_words(&buf[..n]), Ok(built));
     assert_eq!(
         design.to_words(&mut buf[..n - 1]),
         Err(ConfigError::Words { at: n - 1 })

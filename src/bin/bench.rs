@@ -7,8 +7,8 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 use sledid::control::{
-    InverseInputMap, ModelReport, PidConfig, PidDesign, PidState, ScheduledConfig, ScheduledDesign,
-    ScheduledState,
+    Controller, InverseInputMap, ModelReport, PidConfig, PidDesign, PidState, ScheduledConfig,
+    ScheduledDesign, ScheduledState,
 };
 use sledid::ident::decimate::{DecimatorConfig, DecimatorState};
 use sledid::ident::linear::{LinearConfig, LinearDesign, LinearState, Structure};
@@ -280,8 +280,8 @@ impl ScheduledBench {
     pub fn new() -> Option<Self> {
         let config = Self::design()?.build().ok()?;
         Some(Self {
+            state: Controller::new_state(&config),
             config,
-            state: ScheduledState::new(),
         })
     }
 
@@ -293,7 +293,7 @@ impl ScheduledBench {
             status: Status::UPDATED,
             eps: at(&PSI_TABLE, i),
         };
-        let o = self.config.step(&mut self.state, r, y, &report);
+        let o = self.config.step_law(&mut self.state, r, y, &report);
         (o.u.raw() as u32) ^ u32::from(o.flags.bits())
     }
 
@@ -303,8 +303,16 @@ impl ScheduledBench {
         let acc = self.call(i);
         let a = ParamI12F20::from_raw(-(858_000 + (i % 64) as i32 * 100));
         let b = ParamI12F20::from_raw(24_800_000 + (i % 64) as i32 * 1000);
-        let outcome = self.config.redesign(&mut self.state, &[a, b]);
-        acc ^ u32::from(matches!(outcome, sledid::control::Redesign::Applied(_)))
+        let mut theta = [ParamI12F20::ZERO; sledid::control::scheduled::MAX_MODEL_PARAMS];
+        theta[0] = a;
+        theta[1] = b;
+        let job = sledid::control::scheduled::RedesignJob::Place { theta, len: 2 };
+        let design = Controller::redesign(&self.config, &job);
+        Controller::adopt(&self.config, &mut self.state, &design);
+        acc ^ u32::from(matches!(
+            design.outcome,
+            sledid::control::Redesign::Applied(_)
+        ))
     }
 }
 
@@ -312,8 +320,8 @@ impl ScheduledBench {
 /// ARX(1,1) velocity identifier, two-channel half-band decimator, the Wiener model every second
 /// call (the mean over both phases is the per-sample cost). Same scenario as [`ScheduledBench`].
 pub struct LoopBench {
-    config: sledid::servo::LoopConfig,
-    state: sledid::servo::LoopState,
+    config: sledid::servo::SledServo,
+    state: sledid::servo::SledServoState,
 }
 
 impl LoopBench {
@@ -337,10 +345,11 @@ impl LoopBench {
             },
         );
         wiener.rls = rls_design();
-        let config = sledid::servo::LoopDesign {
+        let config = sledid::servo::ServoDesign {
             controller,
             velocity,
             wiener: Some(wiener),
+            handover_latency_samples: 1,
         }
         .build()
         .ok()?;
@@ -355,7 +364,7 @@ impl LoopBench {
         let r = PositionI48F16::from_counts(300);
         let y = PositionI48F16::from_raw(r.raw() + i64::from(at(&Y_TABLE, i).raw()));
         let o = self.config.step(&mut self.state, r, y);
-        (o.u.raw() as u32) ^ u32::from(o.velocity.status.bits())
+        (o.u.raw() as u32) ^ u32::from(o.identifier.status.bits())
     }
 }
 

@@ -1,7 +1,7 @@
 //! `sledid-fw`: the whole per-sample loop as firmware. SysTick fires once per sled sample period
 //! (Ts = 0.455 ms); its handler feeds the next sample of a recording embedded in flash (the first
 //! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
-//! ([`sledid::servo::LoopConfig::step_shadow`]: the scheduled controller and its supervisor
+//! ([`sledid::servo::SledServo::step_shadow`]: the scheduled controller and its supervisor
 //! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
 //! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`],
 //! decoded at start-up from configuration words the host computed from its design
@@ -9,10 +9,9 @@
 //! settings are built on the target),
 //! folds every output into a checksum and pushes a telemetry record into a fixed-capacity SPSC
 //! queue. The main loop drains the queue, counts the records, logs a few with defmt (over
-//! semihosting), and runs the controller's slow-rate gain redesign (f32) whenever the handler asks
-//! for it: the handler hands the run over and steps nothing until the redesign is done, so the
-//! redesign requested by sample k always comes before sample k + 1, as in the host replay
-//! ([`fw_config`]'s redesign rule; late ticks are counted as stalls). At the end it prints the
+//! semihosting), and runs the controller's slow-rate gain redesign (f32) on the job the handler
+//! posts: the handler never waits for it, it adopts the result at the sample the hand-over names
+//! ([`sledid::servo::handover`], [`fw_config`]'s redesign rule). At the end it prints the
 //! result line (sample and update counts, redesign outcomes, the checksum, the final θ of both
 //! estimators), the stack high-water mark, and exits through semihosting;
 //! `host-tests/tests/firmware_qemu.rs` runs it under QEMU for both targets and asserts the result
@@ -59,7 +58,8 @@ mod target {
     use defmt_semihosting as _;
     use heapless::spsc::{Consumer, Producer, Queue};
     use sledid::control::Redesign;
-    use sledid::servo::LoopConfig;
+    use sledid::control::scheduled::{RedesignJob, RedesignResult};
+    use sledid::servo::{Posted, SledServo, Ticket};
 
     use super::FIXTURE;
     use super::fw_config::{
@@ -103,7 +103,7 @@ mod target {
         u_raw: i32,
         /// The controller's region (0 seek, 1 settle, 2 hold).
         region: u8,
-        /// The controller's flags (`ScheduledFlags` bits).
+        /// The controller's flags (`ControlFlags` bits).
         control_bits: u16,
         /// Velocity identifier ŷ(t), raw I16F16 (quanta per sample).
         y_hat_raw: i32,
@@ -120,16 +120,12 @@ mod target {
         summary: Summary,
         /// Telemetry records that found the queue full.
         dropped: u32,
-        /// Ticks that found the run with the main loop (a redesign not finished within a period).
-        stalls: u32,
     }
 
     /// What one tick did.
     enum Tick {
         /// Stepped a sample.
         Stepped,
-        /// Stepped a sample, which asks for a redesign before the next one.
-        Redesign,
         /// Stepped the last sample.
         Finished(Finished),
         /// Nothing left to step.
@@ -155,15 +151,22 @@ mod target {
             let Some(sample) = self.cursor.next(FIXTURE) else {
                 return Tick::Idle;
             };
+            // The background's result, if it finished: adopted at its due sample by the step.
+            if let Some((ticket, design)) = critical_section::with(|cs| RESULT.borrow(cs).take()) {
+                self.run.deliver(ticket, design);
+            }
             let out = self.run.step(&sample);
+            if let Some(job) = self.run.take_job() {
+                critical_section::with(|cs| JOB.borrow(cs).set(Some(job)));
+            }
             let record = Telemetry {
                 index: index as u32,
                 u_raw: out.u.raw(),
                 region: out.region.index(),
                 control_bits: out.control.bits(),
-                y_hat_raw: out.velocity.y_hat.raw(),
-                eps_raw: out.velocity.eps.raw(),
-                status_bits: out.velocity.status.bits(),
+                y_hat_raw: out.identifier.y_hat.raw(),
+                eps_raw: out.identifier.eps.raw(),
+                status_bits: out.identifier.status.bits(),
             };
             if self.producer.enqueue(record).is_err() {
                 self.dropped = self.dropped.saturating_add(1);
@@ -172,49 +175,36 @@ mod target {
                 Tick::Finished(Finished {
                     summary: self.run.summary(),
                     dropped: self.dropped,
-                    stalls: 0,
                 })
-            } else if self.run.redesign_pending() {
-                Tick::Redesign
             } else {
                 Tick::Stepped
             }
         }
     }
 
-    /// Main → SysTick: the ticker, at the start and back after each redesign. Only the reference
-    /// moves: the ticker itself (the run state) lives once, in `main`'s static storage.
+    /// Main → SysTick, once: the ticker (the run state lives once, in `main`'s static storage).
     static HANDOFF: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
-    /// SysTick → main: the ticker, when the sample just stepped asks for a redesign.
-    static REDESIGN: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
+    /// SysTick → main: the redesign job a step posted (one in flight at most).
+    static JOB: Mutex<Cell<Option<Posted<RedesignJob>>>> = Mutex::new(Cell::new(None));
+    /// Main → SysTick: the finished redesign, adopted at its due sample.
+    static RESULT: Mutex<Cell<Option<(Ticket, RedesignResult)>>> = Mutex::new(Cell::new(None));
     /// SysTick → main, once: the outcome.
     static DONE: Mutex<Cell<Option<Finished>>> = Mutex::new(Cell::new(None));
 
-    /// The sample-period interrupt: one step of the loop on the next record. The handler takes
-    /// the ticker from [`HANDOFF`] whenever it has none (at the start, after a redesign), so the
-    /// step itself runs outside any critical section; while the main loop holds it (a redesign
-    /// longer than a period) the tick steps nothing and counts a stall.
+    /// The sample-period interrupt: one step of the loop on the next record. It takes the ticker
+    /// from [`HANDOFF`] once and keeps it; it never waits for the main loop (a redesign arrives
+    /// through [`RESULT`] or is flagged missed at its due sample).
     #[exception]
     fn SysTick() {
         static mut TICKER: Option<&'static mut Ticker> = None;
-        static mut STALLS: u32 = 0;
         if TICKER.is_none() {
             *TICKER = critical_section::with(|cs| HANDOFF.borrow(cs).take());
         }
         let Some(ticker) = TICKER.as_deref_mut() else {
-            *STALLS = STALLS.saturating_add(1);
             return;
         };
-        match ticker.tick() {
-            Tick::Stepped | Tick::Idle => {}
-            Tick::Redesign => {
-                let ticker = TICKER.take();
-                critical_section::with(|cs| REDESIGN.borrow(cs).set(ticker));
-            }
-            Tick::Finished(mut done) => {
-                done.stalls = *STALLS;
-                critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
-            }
+        if let Tick::Finished(done) = ticker.tick() {
+            critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
         }
     }
 
@@ -290,8 +280,9 @@ mod target {
         (bottom, top)
     }
 
-    /// The run the handler steps: its configuration borrowed from [`install_config`]'s storage.
-    type FwRun = Run<&'static mut LoopConfig>;
+    /// The run the handler steps: its configuration borrowed from [`install_config`]'s storage
+    /// (shared: the main loop reads it for the redesigns).
+    type FwRun = Run<&'static SledServo>;
 
     /// Decodes the configuration words into their static storage, once (`None` if they do not
     /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (a
@@ -300,10 +291,10 @@ mod target {
     /// frame holds one copy at most. Out of line, so that the decoding's temporaries are gone
     /// before [`install`] runs and SysTick starts.
     #[inline(never)]
-    fn install_config() -> Option<&'static mut LoopConfig> {
-        let slot = cortex_m::singleton!(CONFIG: Option<LoopConfig> = None)?;
+    fn install_config() -> Option<&'static SledServo> {
+        let slot = cortex_m::singleton!(CONFIG: Option<SledServo> = None)?;
         fw_config::config_into(slot).ok()?;
-        slot.as_mut()
+        slot.as_ref()
     }
 
     /// Builds the ticker (the run state on `config`, the read position, the producer) into its
@@ -311,7 +302,7 @@ mod target {
     /// after [`install_config`] has returned, so that their frames do not add up.
     #[inline(never)]
     fn install(
-        config: &'static mut LoopConfig,
+        config: &'static SledServo,
         producer: Producer<'static, Telemetry>,
     ) -> Option<&'static mut Ticker> {
         let slot = cortex_m::singleton!(TICKER: Option<Ticker> = None)?;
@@ -331,8 +322,11 @@ mod target {
             return false;
         };
         let (producer, mut consumer) = queue.split();
-        let Some(ticker) = install_config().and_then(|config| install(config, producer)) else {
+        let Some(config) = install_config() else {
             defmt::println!("sledid-fw: the configuration words do not decode");
+            return false;
+        };
+        let Some(ticker) = install(config, producer) else {
             return false;
         };
         defmt::println!(
@@ -359,10 +353,10 @@ mod target {
         let mut redesigns = 0u32;
         let finished = loop {
             drain(&mut consumer, &mut received);
-            if let Some(ticker) = critical_section::with(|cs| REDESIGN.borrow(cs).take()) {
-                let outcome = ticker.run.redesign();
-                let at = ticker.cursor.index();
-                critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
+            if let Some(job) = critical_section::with(|cs| JOB.borrow(cs).take()) {
+                let design = config.redesign(&job);
+                critical_section::with(|cs| RESULT.borrow(cs).set(Some((job.ticket, design))));
+                let (outcome, at) = (design.outcome, job.ticket.due);
                 redesigns = redesigns.saturating_add(1);
                 if redesigns <= 3 {
                     let what = match outcome {
@@ -370,7 +364,7 @@ mod target {
                         Redesign::Rejected(_) => "rejected",
                         Redesign::Skipped => "skipped",
                     };
-                    defmt::println!("redesign before sample {=usize}: {=str}", at, what);
+                    defmt::println!("redesign due at sample {=u32}: {=str}", at, what);
                 }
             }
             if let Some(f) = critical_section::with(|cs| DONE.borrow(cs).take()) {
@@ -399,12 +393,11 @@ mod target {
             s.wiener_raw
         );
         defmt::println!(
-            "telemetry: {=u32} received, {=u32} dropped; {=u32} redesigns, {=u32} stalled ticks; \
+            "telemetry: {=u32} received, {=u32} dropped; {=u32} redesigns; \
              stack high-water {=usize} of {=usize} bytes",
             received,
             finished.dropped,
             redesigns,
-            finished.stalls,
             stack_used,
             stack_size
         );
@@ -507,7 +500,7 @@ mod target {
         pub(super) extern "C" fn sledid_fw_bench_step(i: u32) -> u32 {
             with_bench(i, |run, sample| {
                 let out = run.step(sample);
-                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
             })
         }
 
@@ -518,7 +511,7 @@ mod target {
         pub(super) extern "C" fn sledid_fw_bench_loop(i: u32) -> u32 {
             with_bench(i, |run, sample| {
                 let out = fw_config::loop_step(&run.config, &mut run.state, sample);
-                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
             })
         }
 
@@ -536,7 +529,7 @@ mod target {
                 let y = sledid::PositionI48F16::from_raw(r.raw() + (offset << 16));
                 let sample = Sample { r, y, u: sample.u };
                 let out = fw_config::loop_step(&run.config, &mut run.state, &sample);
-                (out.u.raw() as u32) ^ u32::from(out.velocity.status.bits())
+                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
             })
         }
 

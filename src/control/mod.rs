@@ -1,181 +1,57 @@
-//! Position control of the sled in fixed point: the paper's loop (Section 3, Figure 2) closed by a
-//! PID/lead controller, configurable as the twin's badly tuned baseline and as the EMPS rig's
-//! PD-with-inner-velocity-loop controller — and the gain-scheduled controller the paper's
-//! conclusion asks for ("different models, and then also different controllers, at different
-//! parts of a step response", §6).
+//! Position control of the sled in fixed point: the paper's loop (Section 3, Figure 2) closed by
+//! the baseline PID/lead, and the gain-scheduled controller the paper's conclusion asks for
+//! ("different models, and then also different controllers, at different parts of a step
+//! response", §6), its gains placed from the identified model.
 //!
 //! | module | what |
 //! |---|---|
-//! | [`pid`] | the baseline PID/lead (this page documents its law, formats and accuracy) |
-//! | [`scheduled::regions`] | the seek / settle / hold regions and their hysteresis |
-//! | [`placement`] | slow-rate indirect self-tuning: identified θ → velocity model → pole placement (f32, `libm`) |
+//! | [`pid`] | the baseline PID/lead: law, formats, accuracy |
+//! | [`integrator`] | conditional integration (the anti-windup every integrating law shares) |
+//! | [`placement`] | slow-rate design: identified θ → velocity model → pole placement (f32, `libm`) |
 //! | [`compensation`] | inverse of a Hammerstein input map (the paper's tanh neuron), as a table |
-//! | [`scheduled`] | the per-sample scheduled law, transfers, anti-windup, supervisor and fallback |
-//! | [`scheduled::supervisor`] | the scheduled controller's flags, the identifier's report, redesign outcomes |
-//! | [`crate::servo::hal`] | embedded-hal 1.0 boundary: `SetDutyCycle` drives, a position-sensor trait, the loop |
+//! | [`scheduled`] | the scheduled law: [`scheduled::regions`] (seek / settle / hold), transfers, [`scheduled::supervisor`] and fallback |
+//! | [`flags`] | what a controller reports each sample |
 //!
-//! The rest of this page is the baseline PID's documentation.
-//! # Equations
-//! Per sample `k`, positions in sensor quanta, every term in fractions of the full-scale drive
-//! `u_fs` (the design's gains in volts are divided by `u_fs` when the configuration is built):
-//!
-//! ```text
-//! r_f(k) = r_f(k−1) + (1 − α)·(r(k) − r_f(k−1))     α = e^{−2π·f_r·Ts}   (prefilter; off: r_f = r)
-//! e(k)   = r_f(k) − y(k)
-//! w(k)   = e(k)        (derivative on the error)   or   −y(k)   (derivative on the measurement)
-//! Δ(k)   = w(k) − w(k−n)                            n-sample moving sum of the differences, n ≤ 4
-//! s(k)   = β·s(k−1) + (1 − β)·Δ(k)                  β = e^{−2π·f_d·Ts}   (off: β = 0, s = Δ)
-//! P = Kp·e(k)      D = Kd/(n·Ts)·s(k)
-//! I* = clamp(I(k−1) + Ki·Ts·e(k), ±I_max)
-//! I(k) = I(k−1)    if |P + I* + D| > u_max and I* − I(k−1) has the sign of P + I* + D
-//!        I*        otherwise                        (conditional integration: no windup)
-//! u(k) = clamp(P + I(k) + D, ±u_max)
-//! ```
-//!
-//! With n = 1 and a low-pass derivative this is the twin's baseline `PidController`
-//! (`host-tests/src/twin/baseline.rs`): `D(k) = β·D(k−1) + (1 − β)·Kd·(e(k) − e(k−1))/Ts`, D = 0 on
-//! the first sample. The EMPS controller `vir = kp·kv·(qg − qm) − kv·v̂` is Kp = kp·kv, Kd = kv,
-//! Ki = 0, derivative on the measurement with v̂ = (qm(k) − qm(k−2))/(2·Ts): n = 2, no low-pass
-//! ([`pid::PidDesign::position_velocity_cascade`]).
-//!
-//! **First sample and bumpless enable.** On the first sample after [`pid::PidState::new`] the
-//! derivative history is filled with the current w (D = 0, no derivative kick) and the prefilter
-//! starts at the measured position. While disabled ([`pid::PidState::set_enabled`]) the output is
-//! the manual value, the derivative history keeps running, the prefilter follows y, and the
-//! integrator tracks `u_manual − P − D` (clamped to ±I_max): re-enabling continues from the manual
-//! output without a step. Without an integrator (I_max = 0) the transfer cannot be bumpless and
-//! [`ControlFlags::TRACKING_LIMITED`] says so.
-//!
-//! # Formats
-//! | quantity | format | range | step |
-//! |---|---|---|---|
-//! | r, y, r_f, w history | `i64` I48F16 ([`crate::num::boundary::PositionI48F16`]) | ±1.4·10¹⁴ quanta | 2⁻¹⁶ quanta |
-//! | e, Δ, s | I16F16 ([`SignalI16F16`]) | ±32,768 quanta | 2⁻¹⁶ quanta |
-//! | Kp, Ki·Ts, Kd/(n·Ts) | [`Gain`]: `i32` mantissa, \|m\| ∈ [2³⁰, 2³¹), own shift | (0, 2¹⁵) u_fs per quantum | 2⁻³¹ relative |
-//! | α, 1 − α, β, 1 − β | U1F31 `u32` | [0, 1] | 4.7·10⁻¹⁰ |
-//! | P, I, D, sums, I_max, u_max | `i64` I32F32 (u_max on the I16F16 grid) | ±2³¹ u_fs | 2⁻³² u_fs |
-//! | u | I16F16 ([`SignalI16F16`]) | ±u_max (< 32,768 u_fs) | 2⁻¹⁶ u_fs |
-//!
-//! # Range analysis
-//! Absolute positions stay in I48F16; only differences are narrowed. The error e and the moving
-//! sum Δ are narrowed to I16F16 (±32,768 quanta): the sled's seeks are ≤ 2,000 tracks and ≤ 60
-//! tracks per sample; on EMPS (quantum 5·10⁻⁸ m) |qg − qm| ≤ 17,045 counts and |Δ| ≤ 5,200 counts
-//! for n = 2. Beyond that they saturate (flagged), which limits the controller's authority but
-//! keeps its sign. Every term is an `i32` × `i32` product shifted right, so |P|, |D|, |Ki·Ts·e| <
-//! 2⁶² and P + D < 2⁶³ is exact; I and u are clamped to limits below 2⁴⁷, and the sums with them
-//! saturate (unflagged) only beyond ±2³¹ u_fs, where the output is clamped anyway.
-//!
-//! # Scaling and overflow
-//! Every product of two `i32` goes through [`mul_i32_wide`] (four `MULS` on Armv6-M); narrowings
-//! round half up and saturate with [`ControlFlags::ARITHMETIC_SATURATED`]; position differences are
-//! `saturating_sub`, so any `i64` input, including `i64::MIN`, is accepted. The prefilter's rounding
-//! stops it within 2⁻¹⁷/(1 − α) quanta of a constant reference (7.6·10⁻⁴ quanta at α = 0.99).
-//!
-//! # Accuracy
-//! - Against the float64 law (`host-tests/src/reference/control.rs`), open loop on the same
-//!   inputs: |u − u_f64| ≤ 2⁻¹⁷ u_fs (half an output LSB) + the gains' 2⁻³¹ relative rounding + the
-//!   filters' 2⁻¹⁷ quanta per sample; measured 7.65·10⁻⁶ u_fs on the twin's baseline (7.69·10⁻⁶
-//!   with the prefilter) and 7.63·10⁻⁶ u_fs on EMPS, asserted < 8·10⁻⁶
-//!   (`fixed_point_matches_float64_on_twin_and_emps` in `host-tests/tests/control.rs`).
-//! - In the twin's loop the baseline configuration follows the f64 law with its output rounded to
-//!   the I16F16 grid sample for sample (through the first seek on every seed, the whole run on two
-//!   of four); against the unrounded f64 baseline 23 of 24 seeks settle within one sample period
-//!   and every seek ends in the ±1-quantum limit cycle
-//!   (`fixed_point_baseline_reproduces_the_twin_closed_loop`).
-//! - The EMPS configuration reproduces the recorded `vir` to 0.0037 V RMS (0.0105 V including the
-//!   two priming samples); a first-order low-pass of the difference instead reaches 0.0051 V at
-//!   best (175 Hz) (`emps_controller_reproduces_the_recorded_drive`).
-//!
-//! # Cost
-//! `bench_pid_step` in `src/bin/bench.rs` (the baseline plus a 300 Hz prefilter: every option on),
-//! `count_insns.py`, 256 calls after 64 warm-up calls, including the bench scaffolding
-//! (`bench_overhead`: 26 / 29 instructions): Cortex-M4F 437 instructions ≈ 546 cycles, 64 B stack;
-//! Cortex-M0+ 945 instructions ≈ 1,350 cycles, 112 B stack. Without the prefilter 397 ≈ 502 (M4F)
-//! and 821 ≈ 1,188 (M0+). That is 1.7 % of the 0.455 ms sample period at 72 MHz and 6 % at 48 MHz;
-//! most of it is 64-bit saturating arithmetic and variable shifts, not the multiplies.
+//! # The seam: [`Controller`]
+//! Every law the servo ([`crate::servo`]) can run implements [`Controller`]: a validated,
+//! immutable configuration (`&self`) stepped once per sample on its own state, plus an optional
+//! slow-rate redesign that the servo runs in the background and hands over at a fixed sample
+//! (`redesign_job` → `redesign` → `adopt`). A new controller is a new module here and an impl of
+//! the trait; the servo does not change.
 
 #![deny(clippy::float_arithmetic)]
 
 pub mod compensation;
+pub mod flags;
+pub mod integrator;
 pub mod pid;
 pub mod placement;
 pub mod scheduled;
 
 pub use compensation::InverseInputMap;
-pub use pid::{DerivativeOn, PidConfig, PidDesign, PidState};
+pub use flags::ControlFlags;
+pub use pid::{DerivativeOn, PidConfig, PidDesign, PidFlags, PidOutput, PidState};
 pub use placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 pub use scheduled::regions::{Region, RegionDesign, RegionSelector};
-pub use scheduled::{
-    ModelReport, Redesign, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledOutput,
-    ScheduledState,
-};
+pub use scheduled::supervisor::{DISTRUST, ModelReport, Redesign};
+pub use scheduled::{ScheduledConfig, ScheduledDesign, ScheduledState};
 
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;
 
-use crate::ident::status::Status;
-use crate::num::fixed::{SignalI16F16, shr_round_i64};
-use crate::num::wide::{mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
-use crate::words::{WordReader, WordWriter, Words};
+use crate::num::boundary::PositionI48F16;
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 
-/// Fraction bits of the I32F32 accumulator of the controller terms.
-pub const ACC_FRAC_BITS: u32 = 32;
-/// 1.0 in U1F31 (the filter coefficients).
-pub const ONE_U1F31: u32 = 1 << 31;
-
-/// What the controller did in one sample.
-#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ControlFlags(u8);
-
-impl ControlFlags {
-    /// No flag.
-    pub const NONE: Self = Self(0);
-    /// P + I + D exceeded ±u_max and the output was clamped.
-    pub const OUTPUT_SATURATED: Self = Self(1 << 0);
-    /// The integrator reached ±I_max.
-    pub const INTEGRATOR_LIMITED: Self = Self(1 << 1);
-    /// Conditional integration held the integrator (it would have wound further into saturation).
-    pub const INTEGRATION_HELD: Self = Self(1 << 2);
-    /// A fixed-point narrowing saturated (error, moving sum or output beyond I16F16).
-    pub const ARITHMETIC_SATURATED: Self = Self(1 << 3);
-    /// Disabled: the output is the manual value and the integrator tracks it.
-    pub const MANUAL: Self = Self(1 << 4);
-    /// Disabled, and the integrator limit kept it from absorbing `u_manual − P − D`: re-enabling
-    /// will step the output.
-    pub const TRACKING_LIMITED: Self = Self(1 << 5);
-    /// The first sample after `new`/`reset`: the derivative history was primed (D = 0).
-    pub const FIRST_SAMPLE: Self = Self(1 << 6);
-
-    /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 7] = [
-        (Self::OUTPUT_SATURATED, "output_saturated"),
-        (Self::INTEGRATOR_LIMITED, "integrator_limited"),
-        (Self::INTEGRATION_HELD, "integration_held"),
-        (Self::ARITHMETIC_SATURATED, "arithmetic_saturated"),
-        (Self::MANUAL, "manual"),
-        (Self::TRACKING_LIMITED, "tracking_limited"),
-        (Self::FIRST_SAMPLE, "first_sample"),
-    ];
-
-    /// The identifier-side [`Status`] equivalent: arithmetic saturation → `SATURATED`, manual →
-    /// `HELD`, first sample → `WARMUP` (output and integrator limits have no equivalent).
-    pub const fn status(self) -> Status {
-        let mut bits = 0;
-        if self.intersects(Self::ARITHMETIC_SATURATED) {
-            bits |= Status::SATURATED.bits();
-        }
-        if self.intersects(Self::MANUAL) {
-            bits |= Status::HELD.bits();
-        }
-        if self.intersects(Self::FIRST_SAMPLE) {
-            bits |= Status::WARMUP.bits();
-        }
-        Status::from_bits(bits)
-    }
+/// What a controller sees in one sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ControlInput {
+    /// The reference r(k), quanta.
+    pub r: PositionI48F16,
+    /// The measured position y(k), quanta.
+    pub y: PositionI48F16,
+    /// The identifier's report of the previous sample (what the supervisor judges the model by).
+    pub report: ModelReport,
 }
-
-crate::flag_set_impl!(ControlFlags, u8);
 
 /// The result of one controller step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -183,328 +59,36 @@ crate::flag_set_impl!(ControlFlags, u8);
 pub struct ControlOutput {
     /// The drive, fraction of full scale, |u| ≤ u_max.
     pub u: SignalI16F16,
+    /// The part of the step response the law is in (a law without regions reports `Seek`).
+    pub region: Region,
     /// What happened.
     pub flags: ControlFlags,
 }
 
-/// A gain from an I16F16 signal to an I32F32 term: `value = m · 2^−(16 + s)`, the mantissa
-/// normalised to |m| ∈ [2³⁰, 2³¹) (31 significant bits whatever the magnitude), `s ∈ 0..=62`.
-///
-/// `apply(x) = round(x · m / 2^s)`: exact product, one rounding. Range (0, 2¹⁵); gains below
-/// 2⁻⁴⁸ lose significant bits (there the term is below 2⁻³² u_fs per quantum anyway).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Gain {
-    m: i32,
-    s: u32,
-}
+/// A position control law the servo can run: configuration immutable at run time, everything the
+/// loop changes (histories, integrators, latches, the gains in use) in [`Controller::State`].
+pub trait Controller {
+    /// Everything one sample, or an adopted redesign, mutates.
+    type State;
+    /// What a slow-rate redesign needs, copied out of the state when it is requested.
+    type Job: Copy;
+    /// What a redesign produces, handed back to [`Controller::adopt`].
+    type Design: Copy;
 
-impl Gain {
-    /// Zero.
-    pub const ZERO: Self = Self { m: 0, s: 0 };
-    /// Largest shift.
-    const MAX_SHIFT: u32 = 62;
+    /// A fresh state (the prior's gains, if any).
+    fn new_state(&self) -> Self::State;
 
-    /// Quantises `g` (I32F32 output units per I16F16 input unit); `None` for NaN, ±∞ or |g| ≥ 2¹⁵.
-    ///
-    /// `m = round(g·2¹⁶·2^s)` with the smallest `s ≤ 62` that puts |m| in [2³⁰, 2³¹), computed from
-    /// the bits of `g` (exponent and 53-bit mantissa) with integer shifts only: it runs in the
-    /// slow-rate redesign on cores without a double-precision FPU, where a loop of `f64`
-    /// multiplications cost ~3,000 instructions per gain (`bench_sched_redesign`).
-    pub fn from_f64(g: f64) -> Option<Self> {
-        if !g.is_finite() {
-            return None;
-        }
-        let bits = g.to_bits();
-        let negative = bits >> 63 != 0;
-        let biased = ((bits >> 52) & 0x7ff) as i32;
-        let fraction = bits & ((1 << 52) - 1);
-        if biased == 0 && fraction == 0 {
-            return Some(Self::ZERO);
-        }
-        // |g| = mant · 2^(e − 1075) (normal) or fraction · 2^−1074 (subnormal).
-        let (mant, e) = if biased == 0 {
-            (fraction, 1)
-        } else {
-            (fraction | (1 << 52), biased)
-        };
-        // x·2^s = mant · 2^(e − 1075 + 16 + s); for a normal mant ∈ [2^52, 2^53) the integer
-        // part lies in [2^30, 2^31) when the exponent is −22: s = 1037 − e.
-        let s = 1037 - e;
-        if s < 0 {
-            return None; // |x| ≥ 2^31
-        }
-        let s = s.min(Self::MAX_SHIFT as i32);
-        let right = (1075 - 16 - s - e) as u32; // ≥ 22
-        // round half up: floor(mant / 2^right + 1/2); right ≥ 64 gives 0.
-        let m = if right >= 64 {
-            0
-        } else {
-            ((u128::from(mant) + (1u128 << (right - 1))) >> right) as i64
-        };
-        let (m, s) = if m >= 1 << 31 {
-            // Rounded up to 2^31: one bit less of shift.
-            if s == 0 {
-                return None;
-            }
-            (1i64 << 30, s - 1)
-        } else {
-            (m, s)
-        };
-        let m = m as i32; // < 2^31
-        Some(Self {
-            m: if negative { -m } else { m },
-            s: s as u32,
-        })
-    }
+    /// One sample. The only data path; never panics; |u| ≤ u_max for every input.
+    fn step(&self, state: &mut Self::State, input: &ControlInput) -> ControlOutput;
 
-    /// The float loop `from_f64` replaced, kept to check it bit for bit.
-    #[cfg(test)]
-    #[allow(clippy::float_arithmetic)]
-    fn from_f64_by_loop(g: f64) -> Option<Self> {
-        if !g.is_finite() {
-            return None;
-        }
-        if g == 0.0 {
-            return Some(Self::ZERO);
-        }
-        let mut x = if g < 0.0 { -g } else { g } * 65_536.0;
-        if x >= 2_147_483_648.0 {
-            return None;
-        }
-        let mut s = 0;
-        while x < 1_073_741_824.0 && s < Self::MAX_SHIFT {
-            x *= 2.0;
-            s += 1;
-        }
-        let mut m = (x + 0.5) as i64;
-        if m >= 1 << 31 {
-            if s == 0 {
-                return None;
-            }
-            m = 1 << 30;
-            s -= 1;
-        }
-        let m = m as i32;
-        Some(Self {
-            m: if g < 0.0 { -m } else { m },
-            s,
-        })
-    }
+    /// After a step: the redesign job if the law asks for one now (the request is then cleared),
+    /// from the identifier's current estimate θ.
+    fn redesign_job(&self, state: &mut Self::State, theta: &[ParamI12F20]) -> Option<Self::Job>;
 
-    /// The value (exact).
-    #[allow(clippy::float_arithmetic)] // diagnostics, not the per-sample path
-    pub fn to_f64(self) -> f64 {
-        f64::from(self.m) / 65_536.0 / (1u64 << self.s) as f64
-    }
+    /// The redesign itself: a pure function of the configuration and the job, run outside the
+    /// sample interrupt (it may take many sample periods).
+    fn redesign(&self, job: &Self::Job) -> Self::Design;
 
-    /// The mantissa and the shift.
-    pub const fn parts(self) -> (i32, u32) {
-        (self.m, self.s)
-    }
-
-    /// `x · value` in I32F32 for an I16F16 `x`, rounded half up; |result| < 2⁶².
-    #[inline(always)]
-    pub fn apply(self, x: i32) -> i64 {
-        // |x·m| < 2^31 · 2^31: exact in i64; the shift only reduces it. (A one-shift rounding,
-        // `(p + (2^s >> 1)) >> s`, measured 3 % slower on M4F and 2 % faster on M0+.)
-        shr_round_i64(mul_i32_wide(x, self.m), self.s)
-    }
-}
-
-/// `round(x · c / 2³¹)` for any `i64` x and a U1F31 coefficient `c ≤ 2³¹` (|result| ≤ |x|).
-#[inline(always)]
-pub fn mul_i64_u1f31(x: i64, c: u32) -> i64 {
-    // x = hi·2^32 + lo, lo unsigned: x·c / 2^31 = 2·hi·c + lo·c / 2^31, the first part exact.
-    let hi = (x >> 32) as i32;
-    let lo = x as u32;
-    let hi_part = mul_i32_u32_wide(hi, c); // |·| ≤ 2^62
-    let lo_part = mul_u32_wide(lo, c); // < 2^63
-    let floor = (hi_part << 1) + (lo_part >> 31) as i64; // = floor(x·c/2^31), |·| ≤ |x| + 1 < 2^63
-    floor + ((lo_part >> 30) & 1) as i64 // round half up: stays within [floor, ceil]
-}
-
-/// Words: m, s. Checked: `s ≤ 62` and `m ≠ i32::MIN` (what [`Gain::from_f64`] produces).
-impl Words for Gain {
-    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
-        self.m.put(w)?;
-        self.s.put(w)
-    }
-    fn take(r: &mut WordReader<'_>) -> Self {
-        let m = i32::take(r);
-        r.check(m != i32::MIN);
-        let s = u32::take(r);
-        r.check(s <= Self::MAX_SHIFT);
-        Self { m, s }
-    }
-}
-
-/// Largest I32F32 limit a `build` produces: `i32::MAX · 2¹⁶` (it must round into I16F16).
-pub(crate) const LIMIT_I32F32_MAX: i64 = (i32::MAX as i64) << 16;
-
-/// `x` limited to `[−limit, limit]`: `x.clamp(−limit, limit)` for every `limit ≥ 0` (the limits
-/// are built non-negative), without `clamp`'s panic for an empty range (a negative `limit` gives
-/// `limit`). Never panics, links no formatting code. `limit` must not be `i64::MIN`.
-#[inline(always)]
-pub(crate) fn clamp_sym_i64(x: i64, limit: i64) -> i64 {
-    x.max(limit.wrapping_neg()).min(limit)
-}
-
-/// [`clamp_sym_i64`] for `i32`.
-#[inline(always)]
-pub(crate) fn clamp_sym_i32(x: i32, limit: i32) -> i32 {
-    x.max(limit.wrapping_neg()).min(limit)
-}
-
-/// `round(x · 2³²)` for `0 ≤ x < 2¹⁵` (an I32F32 limit), at most `i32::MAX · 2¹⁶` so that it
-/// rounds into I16F16; `None` otherwise, NaN included.
-#[allow(clippy::float_arithmetic)] // design time, not the per-sample path
-pub(crate) fn i32f32_from_f64(x: f64) -> Option<i64> {
-    if !(0.0..32_768.0).contains(&x) {
-        return None;
-    }
-    let raw = (x * 4_294_967_296.0 + 0.5) as i64; // ≤ 2^47
-    (raw <= LIMIT_I32F32_MAX).then_some(raw)
-}
-
-/// A first-order smoothing pole `e^{−2π·f·Ts}` in U1F31, 0 for `f = 0` (off); `None` unless
-/// `f = 0` or `0 < f·Ts < ½`.
-#[allow(clippy::float_arithmetic)] // design time, not the per-sample path
-pub(crate) fn pole_u1f31(corner_hz: f64, ts_s: f64) -> Option<u32> {
-    if corner_hz == 0.0 {
-        return Some(0);
-    }
-    if !(corner_hz.is_finite() && corner_hz > 0.0 && corner_hz * ts_s < 0.5) {
-        return None;
-    }
-    let pole = exp_neg(2.0 * core::f64::consts::PI * corner_hz * ts_s);
-    Some(((pole * f64::from(ONE_U1F31)) + 0.5) as u32) // pole ∈ (e^−π, 1): ≤ 2^31
-}
-
-/// `e^{−x}` for `0 ≤ x ≤ 4` without `std`: `(e^{−x/1024})^1024`, the small argument by its Taylor
-/// series to 8th order; relative error ≈ 10⁻¹³ (the squarings double it ten times).
-#[allow(clippy::float_arithmetic)] // design time, not the per-sample path
-pub fn exp_neg(x: f64) -> f64 {
-    let y = -x / 1024.0;
-    let mut term = 1.0;
-    let mut sum = 1.0;
-    let mut k = 1.0;
-    while k <= 8.0 {
-        term *= y / k;
-        sum += term;
-        k += 1.0;
-    }
-    for _ in 0..10 {
-        sum *= sum;
-    }
-    sum
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn gains_quantise_with_31_significant_bits() {
-        for g in [
-            1.0, -1.0, 0.003, 1.95e-4, 1.217e-3, 0.0182, 12_345.678, -3.0e-9,
-        ] {
-            let q = Gain::from_f64(g).unwrap();
-            let (m, s) = q.parts();
-            assert!(m.unsigned_abs() >= 1 << 30, "{g}: m = {m}");
-            assert!(s <= 62);
-            assert!(((q.to_f64() - g) / g).abs() < 1e-9, "{g}");
-        }
-        assert_eq!(Gain::from_f64(0.0), Some(Gain::ZERO));
-        assert_eq!(Gain::from_f64(32_768.0), None);
-        assert_eq!(Gain::from_f64(f64::NAN), None);
-        assert!(Gain::from_f64(32_767.99).is_some());
-        // Apply: 0.5 × 3 quanta = 1.5 in I32F32.
-        let half = Gain::from_f64(0.5).unwrap();
-        assert_eq!(half.apply(3 << 16), 3 << 31);
-        assert_eq!(half.apply(-(3 << 16)), -(3 << 31));
-        let big = Gain::from_f64(32_767.0).unwrap();
-        assert!(big.apply(i32::MIN).unsigned_abs() < 1 << 62);
-        // Tiny gains underflow to their rounding, never panic.
-        let tiny = Gain::from_f64(1e-30).unwrap();
-        assert_eq!(tiny.apply(i32::MAX), 0);
-    }
-
-    #[test]
-    fn gain_from_bits_equals_the_float_loop() {
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        let fixed = [
-            0.0,
-            -0.0,
-            1.0,
-            32_768.0,
-            32_767.999_999,
-            -32_767.999_999_9,
-            1e-30,
-            -1e-14,
-            3.0e-9,
-            f64::MIN_POSITIVE,
-            5e-324,
-            f64::MAX,
-            (1u64 << 31) as f64 / 65_536.0 - 1e-12,
-            0.999_999_999_9,
-        ];
-        let check = |v: f64| assert_eq!(Gain::from_f64(v), Gain::from_f64_by_loop(v), "{v:e}");
-        fixed.iter().for_each(|&v| check(v));
-        for _ in 0..20_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            let v = f64::from_bits(x);
-            check(v);
-            // And a value in the gains' usual range, with random low bits.
-            check(((x >> 11) as f64 / (1u64 << 53) as f64) * 1e-3);
-            check(-((x >> 11) as f64 / (1u64 << 53) as f64) * 1e-3 * 0.013);
-        }
-    }
-
-    #[test]
-    fn wide_coefficient_product_rounds_and_never_overflows() {
-        let half = ONE_U1F31 / 2;
-        assert_eq!(mul_i64_u1f31(10, half), 5);
-        assert_eq!(mul_i64_u1f31(3, half), 2);
-        assert_eq!(mul_i64_u1f31(-3, half), -1);
-        assert_eq!(mul_i64_u1f31(i64::MAX, ONE_U1F31), i64::MAX);
-        assert_eq!(mul_i64_u1f31(i64::MIN, ONE_U1F31), i64::MIN);
-        assert_eq!(mul_i64_u1f31(i64::MIN, 0), 0);
-        let x = 0x1234_5678_9abc_def0_i64;
-        let c = 0x6000_0001_u32;
-        let exact = (i128::from(x) * i128::from(c) + (1 << 30)) >> 31;
-        assert_eq!(i128::from(mul_i64_u1f31(x, c)), exact);
-        assert_eq!(
-            i128::from(mul_i64_u1f31(-x, c)),
-            (-i128::from(x) * i128::from(c) + (1 << 30)) >> 31
-        );
-    }
-
-    #[test]
-    fn exp_and_poles() {
-        assert!((exp_neg(1.0) - 0.367_879_441_171_442_33).abs() < 1e-13);
-        assert!((exp_neg(0.0) - 1.0).abs() < 1e-15);
-        assert!((exp_neg(3.0) - 0.049_787_068_367_863_944).abs() < 1e-14);
-        assert_eq!(pole_u1f31(0.0, 1e-3), Some(0));
-        assert_eq!(i32f32_from_f64(1.5), Some(3 << 31));
-        assert_eq!(i32f32_from_f64(32_768.0 - 1e-9), None);
-        assert_eq!(i32f32_from_f64(-1e-300), None);
-        assert_eq!(i32f32_from_f64(f64::NAN), None);
-        assert_eq!(pole_u1f31(500.0, 1e-3), None);
-        assert_eq!(pole_u1f31(-1.0, 1e-3), None);
-        assert_eq!(pole_u1f31(f64::NAN, 1e-3), None);
-        let beta = pole_u1f31(1000.0, 0.455e-3).unwrap();
-        let expect = 0.057_334_696_510_890_12; // e^{−2π·0.455}
-        assert!((f64::from(beta) / f64::from(ONE_U1F31) - expect).abs() < 1e-9);
-    }
-
-    #[test]
-    fn flags_map_to_status() {
-        let f = ControlFlags::MANUAL | ControlFlags::ARITHMETIC_SATURATED;
-        assert_eq!(f.status(), Status::HELD | Status::SATURATED);
-        assert_eq!(ControlFlags::OUTPUT_SATURATED.status(), Status::NONE);
-        assert!(f.contains(ControlFlags::MANUAL) && !f.contains(ControlFlags::FIRST_SAMPLE));
-    }
+    /// Applies a finished redesign at its hand-over sample.
+    fn adopt(&self, state: &mut Self::State, design: &Self::Design);
 }

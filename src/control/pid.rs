@@ -1,26 +1,178 @@
-//! The PID/lead position controller: [`PidDesign`] (floats, engineering units) → [`PidConfig`]
-//! (validated, quantised, `Copy`) + [`PidState`]; one [`PidConfig::step`] per sample.
+//! The PID/lead position controller, the paper's loop (Section 3, Figure 2): configurable as the
+//! twin's badly tuned baseline and as the EMPS rig's PD-with-inner-velocity-loop controller.
+//! [`PidDesign`] (floats, engineering units) → [`PidConfig`] (validated, quantised, `Copy`) +
+//! [`PidState`]; one [`PidConfig::step`] per sample. Cost: `bench_pid_step` in BENCHMARKS.md.
 //!
-//! The law, the formats and the range analysis are in the [module documentation](super).
+//! # Equations
+//! Per sample `k`, positions in sensor quanta, every term in fractions of the full-scale drive
+//! `u_fs` (the design's gains in volts are divided by `u_fs` when the configuration is built):
 //!
-//! # Cost
-//! `bench_pid_step` (`src/bin/bench.rs`: prefilter, n = 1 low-pass derivative and integrator all
-//! on; `count_insns.py`, 256 calls after 64, including ~26/29 instructions of bench scaffolding):
-//! Cortex-M4F 437 instructions ≈ 546 cycles; Cortex-M0+ 945 instructions ≈ 1,350 cycles.
+//! ```text
+//! r_f(k) = r_f(k−1) + (1 − α)·(r(k) − r_f(k−1))     α = e^{−2π·f_r·Ts}   (prefilter; off: r_f = r)
+//! e(k)   = r_f(k) − y(k)
+//! w(k)   = e(k)        (derivative on the error)   or   −y(k)   (derivative on the measurement)
+//! Δ(k)   = w(k) − w(k−n)                            n-sample moving sum of the differences, n ≤ 4
+//! s(k)   = β·s(k−1) + (1 − β)·Δ(k)                  β = e^{−2π·f_d·Ts}   (off: β = 0, s = Δ)
+//! P = Kp·e(k)      D = Kd/(n·Ts)·s(k)
+//! I* = clamp(I(k−1) + Ki·Ts·e(k), ±I_max)
+//! I(k) = I(k−1)    if |P + I* + D| > u_max and I* − I(k−1) has the sign of P + I* + D
+//!        I*        otherwise                        (conditional integration: no windup)
+//! u(k) = clamp(P + I(k) + D, ±u_max)
+//! ```
+//!
+//! With n = 1 and a low-pass derivative this is the twin's baseline `PidController`
+//! (`host-tests/src/twin/baseline.rs`): `D(k) = β·D(k−1) + (1 − β)·Kd·(e(k) − e(k−1))/Ts`, D = 0 on
+//! the first sample. The EMPS controller `vir = kp·kv·(qg − qm) − kv·v̂` is Kp = kp·kv, Kd = kv,
+//! Ki = 0, derivative on the measurement with v̂ = (qm(k) − qm(k−2))/(2·Ts): n = 2, no low-pass
+//! ([`pid::PidDesign::position_velocity_cascade`]).
+//!
+//! **First sample and bumpless enable.** On the first sample after [`pid::PidState::new`] the
+//! derivative history is filled with the current w (D = 0, no derivative kick) and the prefilter
+//! starts at the measured position. While disabled ([`pid::PidState::set_enabled`]) the output is
+//! the manual value, the derivative history keeps running, the prefilter follows y, and the
+//! integrator tracks `u_manual − P − D` (clamped to ±I_max): re-enabling continues from the manual
+//! output without a step. Without an integrator (I_max = 0) the transfer cannot be bumpless and
+//! [`PidFlags::TRACKING_LIMITED`] says so.
+//!
+//! # Formats
+//! | quantity | format | range | step |
+//! |---|---|---|---|
+//! | r, y, r_f, w history | `i64` I48F16 ([`crate::num::boundary::PositionI48F16`]) | ±1.4·10¹⁴ quanta | 2⁻¹⁶ quanta |
+//! | e, Δ, s | I16F16 ([`SignalI16F16`]) | ±32,768 quanta | 2⁻¹⁶ quanta |
+//! | Kp, Ki·Ts, Kd/(n·Ts) | [`Gain`]: `i32` mantissa, \|m\| ∈ [2³⁰, 2³¹), own shift | (0, 2¹⁵) u_fs per quantum | 2⁻³¹ relative |
+//! | α, 1 − α, β, 1 − β | U1F31 `u32` | [0, 1] | 4.7·10⁻¹⁰ |
+//! | P, I, D, sums, I_max, u_max | `i64` I32F32 (u_max on the I16F16 grid) | ±2³¹ u_fs | 2⁻³² u_fs |
+//! | u | I16F16 ([`SignalI16F16`]) | ±u_max (< 32,768 u_fs) | 2⁻¹⁶ u_fs |
+//!
+//! # Range analysis
+//! Absolute positions stay in I48F16; only differences are narrowed. The error e and the moving
+//! sum Δ are narrowed to I16F16 (±32,768 quanta): the sled's seeks are ≤ 2,000 tracks and ≤ 60
+//! tracks per sample; on EMPS (quantum 5·10⁻⁸ m) |qg − qm| ≤ 17,045 counts and |Δ| ≤ 5,200 counts
+//! for n = 2. Beyond that they saturate (flagged), which limits the controller's authority but
+//! keeps its sign. Every term is an `i32` × `i32` product shifted right, so |P|, |D|, |Ki·Ts·e| <
+//! 2⁶² and P + D < 2⁶³ is exact; I and u are clamped to limits below 2⁴⁷, and the sums with them
+//! saturate (unflagged) only beyond ±2³¹ u_fs, where the output is clamped anyway.
+//!
+//! # Scaling and overflow
+//! Every product of two `i32` goes through [`mul_i32_wide`] (four `MULS` on Armv6-M); narrowings
+//! round half up and saturate with [`PidFlags::ARITHMETIC_SATURATED`]; position differences are
+//! `saturating_sub`, so any `i64` input, including `i64::MIN`, is accepted. The prefilter's rounding
+//! stops it within 2⁻¹⁷/(1 − α) quanta of a constant reference (7.6·10⁻⁴ quanta at α = 0.99).
+//!
+//! # Accuracy
+//! - Against the float64 law (`host-tests/src/reference/control.rs`), open loop on the same
+//!   inputs: |u − u_f64| ≤ 2⁻¹⁷ u_fs (half an output LSB) + the gains' 2⁻³¹ relative rounding + the
+//!   filters' 2⁻¹⁷ quanta per sample; measured 7.65·10⁻⁶ u_fs on the twin's baseline (7.69·10⁻⁶
+//!   with the prefilter) and 7.63·10⁻⁶ u_fs on EMPS, asserted < 8·10⁻⁶
+//!   (`fixed_point_matches_float64_on_twin_and_emps` in `host-tests/tests/control.rs`).
+//! - In the twin's loop the baseline configuration follows the f64 law with its output rounded to
+//!   the I16F16 grid sample for sample (through the first seek on every seed, the whole run on two
+//!   of four); against the unrounded f64 baseline 23 of 24 seeks settle within one sample period
+//!   and every seek ends in the ±1-quantum limit cycle
+//!   (`fixed_point_baseline_reproduces_the_twin_closed_loop`).
+//! - The EMPS configuration reproduces the recorded `vir` to 0.0037 V RMS (0.0105 V including the
+//!   two priming samples); a first-order low-pass of the difference instead reaches 0.0051 V at
+//!   best (175 Hz) (`emps_controller_reproduces_the_recorded_drive`).
 
-#![deny(clippy::float_arithmetic)]
-
-use super::{
-    ConfigError, ControlFlags, ControlOutput, Gain, LIMIT_I32F32_MAX, ONE_U1F31, clamp_sym_i64,
-    mul_i64_u1f31,
-};
+use super::integrator::integrate;
+use super::{ControlFlags, ControlInput, ControlOutput, Controller, Region};
+use crate::error::ConfigError;
+use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::{SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::gain::{
+    Gain, LIMIT_I32F32_MAX, ONE_U1F31, clamp_sym_i64, i32f32_from_f64, mul_i64_u1f31, pole_u1f31,
+};
 use crate::num::wide::mul_i32_u32_wide;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Longest moving sum of position differences in the derivative (history length).
 pub const MAX_DERIVATIVE_SAMPLES: u8 = 4;
+
+/// What the PID did in one sample.
+#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PidFlags(u8);
+
+impl PidFlags {
+    /// No flag.
+    pub const NONE: Self = Self(0);
+    /// P + I + D exceeded ±u_max and the output was clamped.
+    pub const OUTPUT_SATURATED: Self = Self(1 << 0);
+    /// The integrator reached ±I_max.
+    pub const INTEGRATOR_LIMITED: Self = Self(1 << 1);
+    /// Conditional integration held the integrator (it would have wound further into saturation).
+    pub const INTEGRATION_HELD: Self = Self(1 << 2);
+    /// A fixed-point narrowing saturated (error, moving sum or output beyond I16F16).
+    pub const ARITHMETIC_SATURATED: Self = Self(1 << 3);
+    /// Disabled: the output is the manual value and the integrator tracks it.
+    pub const MANUAL: Self = Self(1 << 4);
+    /// Disabled, and the integrator limit kept it from absorbing `u_manual − P − D`: re-enabling
+    /// will step the output.
+    pub const TRACKING_LIMITED: Self = Self(1 << 5);
+    /// The first sample after `new`/`reset`: the derivative history was primed (D = 0).
+    pub const FIRST_SAMPLE: Self = Self(1 << 6);
+
+    /// All flags with their names, in bit order.
+    pub const NAMES: [(Self, &'static str); 7] = [
+        (Self::OUTPUT_SATURATED, "output_saturated"),
+        (Self::INTEGRATOR_LIMITED, "integrator_limited"),
+        (Self::INTEGRATION_HELD, "integration_held"),
+        (Self::ARITHMETIC_SATURATED, "arithmetic_saturated"),
+        (Self::MANUAL, "manual"),
+        (Self::TRACKING_LIMITED, "tracking_limited"),
+        (Self::FIRST_SAMPLE, "first_sample"),
+    ];
+
+    /// The common [`ControlFlags`] equivalent (manual and tracking have none).
+    pub const fn control(self) -> ControlFlags {
+        let mut f = ControlFlags::NONE;
+        if self.intersects(Self::OUTPUT_SATURATED) {
+            f = f.union(ControlFlags::OUTPUT_SATURATED);
+        }
+        if self.intersects(Self::INTEGRATOR_LIMITED) {
+            f = f.union(ControlFlags::INTEGRATOR_LIMITED);
+        }
+        if self.intersects(Self::INTEGRATION_HELD) {
+            f = f.union(ControlFlags::INTEGRATION_HELD);
+        }
+        if self.intersects(Self::ARITHMETIC_SATURATED) {
+            f = f.union(ControlFlags::ARITHMETIC_SATURATED);
+        }
+        if self.intersects(Self::FIRST_SAMPLE) {
+            f = f.union(ControlFlags::FIRST_SAMPLE);
+        }
+        f
+    }
+
+    /// The identifier-side [`Status`] equivalent: arithmetic saturation → `SATURATED`, manual →
+    /// `HELD`, first sample → `WARMUP` (output and integrator limits have no equivalent).
+    pub const fn status(self) -> Status {
+        let mut bits = 0;
+        if self.intersects(Self::ARITHMETIC_SATURATED) {
+            bits |= Status::SATURATED.bits();
+        }
+        if self.intersects(Self::MANUAL) {
+            bits |= Status::HELD.bits();
+        }
+        if self.intersects(Self::FIRST_SAMPLE) {
+            bits |= Status::WARMUP.bits();
+        }
+        Status::from_bits(bits)
+    }
+}
+
+crate::flag_set_impl!(PidFlags, u8);
+
+/// The result of one PID step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PidOutput {
+    /// The drive, fraction of full scale, |u| ≤ u_max.
+    pub u: SignalI16F16,
+    /// What happened.
+    pub flags: PidFlags,
+}
 
 /// The signal the derivative term differentiates.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -142,7 +294,7 @@ impl PidDesign {
         };
         // I_max keeps its 32 fraction bits: rounding it to I16F16 would bias the output by half
         // an LSB whenever the integrator sits at its clamp (most of the twin's limit cycle).
-        let integrator_limit_i32f32 = match super::i32f32_from_f64(self.integrator_limit_v / fs) {
+        let integrator_limit_i32f32 = match i32f32_from_f64(self.integrator_limit_v / fs) {
             Some(l) if self.integrator_limit_v >= 0.0 => l,
             _ => return Err(E::IntegratorLimit(self.integrator_limit_v)),
         };
@@ -155,9 +307,9 @@ impl PidDesign {
             .ok_or(E::Ki(self.ki_v_per_quantum_s))?;
         let kd = Gain::from_f64(self.kd_v_s_per_quantum / (f64::from(n) * ts) / fs)
             .ok_or(E::Kd(self.kd_v_s_per_quantum))?;
-        let beta = super::pole_u1f31(self.derivative_lowpass_hz, ts)
+        let beta = pole_u1f31(self.derivative_lowpass_hz, ts)
             .ok_or(E::DerivativeLowPass(self.derivative_lowpass_hz))?;
-        let alpha = super::pole_u1f31(self.reference_lowpass_hz, ts)
+        let alpha = pole_u1f31(self.reference_lowpass_hz, ts)
             .ok_or(E::ReferenceLowPass(self.reference_lowpass_hz))?;
         Ok(PidConfig {
             kp,
@@ -292,13 +444,8 @@ impl PidConfig {
 
     /// One sample: reference `r` and measurement `y` in quanta in, the drive out. Never panics;
     /// every input, `i64::MIN`/`MAX` positions included, gives |u| ≤ u_max.
-    pub fn step(
-        &self,
-        state: &mut PidState,
-        r: PositionI48F16,
-        y: PositionI48F16,
-    ) -> ControlOutput {
-        let mut flags = ControlFlags::NONE;
+    pub fn step(&self, state: &mut PidState, r: PositionI48F16, y: PositionI48F16) -> PidOutput {
+        let mut flags = PidFlags::NONE;
         let mut sat = false;
         let first = !state.primed;
         state.primed = true;
@@ -323,7 +470,7 @@ impl PidConfig {
         if first {
             state.history = [w; MAX_DERIVATIVE_SAMPLES as usize];
             state.rate = 0;
-            flags.insert(ControlFlags::FIRST_SAMPLE);
+            flags.insert(PidFlags::FIRST_SAMPLE);
         }
         let [h1, h2, h3, h4] = state.history;
         let oldest = match self.derivative_samples {
@@ -347,37 +494,59 @@ impl PidConfig {
         let u_max = self.u_limit_i32f32;
         let i_max = self.integrator_limit_i32f32;
         let total = if state.enabled {
-            let previous = state.integral_i32f32;
-            let wanted = previous.saturating_add(self.ki_ts.apply(e));
-            let candidate = clamp_sym_i64(wanted, i_max);
-            flags.set_if(ControlFlags::INTEGRATOR_LIMITED, candidate != wanted);
-            let unsaturated = pd.saturating_add(candidate);
-            let winding = (unsaturated > u_max && candidate > previous)
-                || (unsaturated < -u_max && candidate < previous);
-            if winding {
-                flags.insert(ControlFlags::INTEGRATION_HELD);
-            } else {
-                state.integral_i32f32 = candidate;
-            }
+            let step = integrate(
+                &mut state.integral_i32f32,
+                self.ki_ts.apply(e),
+                pd,
+                i_max,
+                u_max,
+            );
+            flags.set_if(PidFlags::INTEGRATOR_LIMITED, step.limited);
+            flags.set_if(PidFlags::INTEGRATION_HELD, step.held);
             pd.saturating_add(state.integral_i32f32)
         } else {
-            flags.insert(ControlFlags::MANUAL);
+            flags.insert(PidFlags::MANUAL);
             let manual = i64::from(state.manual_u.raw()) << 16; // I16F16 → I32F32, < 2^47
             let wanted = manual.saturating_sub(pd);
             state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
-            flags.set_if(
-                ControlFlags::TRACKING_LIMITED,
-                state.integral_i32f32 != wanted,
-            );
+            flags.set_if(PidFlags::TRACKING_LIMITED, state.integral_i32f32 != wanted);
             manual
         };
         let clamped = clamp_sym_i64(total, u_max);
-        flags.set_if(ControlFlags::OUTPUT_SATURATED, clamped != total);
+        flags.set_if(PidFlags::OUTPUT_SATURATED, clamped != total);
         // |clamped| ≤ u_max < 2^47: the narrowing cannot saturate.
         let u = SignalI16F16::from_raw(sat_i32(shr_round_i64(clamped, 16), &mut sat));
-        flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-        ControlOutput { u, flags }
+        flags.set_if(PidFlags::ARITHMETIC_SATURATED, sat);
+        PidOutput { u, flags }
     }
+}
+
+/// The baseline as a servo law: no regions (always `Seek`), no redesign.
+impl Controller for PidConfig {
+    type State = PidState;
+    type Job = ();
+    type Design = ();
+
+    fn new_state(&self) -> PidState {
+        PidState::new()
+    }
+
+    fn step(&self, state: &mut PidState, input: &ControlInput) -> ControlOutput {
+        let out = PidConfig::step(self, state, input.r, input.y);
+        ControlOutput {
+            u: out.u,
+            region: Region::Seek,
+            flags: out.flags.control(),
+        }
+    }
+
+    fn redesign_job(&self, _: &mut PidState, _: &[crate::num::fixed::ParamI12F20]) -> Option<()> {
+        None
+    }
+
+    fn redesign(&self, _: &()) {}
+
+    fn adopt(&self, _: &mut PidState, _: &()) {}
 }
 
 /// Words: 0 `Error`, 1 `Measurement`.
@@ -473,7 +642,7 @@ mod tests {
         for k in 0..10 {
             let o = c.step(&mut s, q(1234), q(1234));
             assert_eq!(o.u, SignalI16F16::ZERO);
-            assert_eq!(o.flags.contains(ControlFlags::FIRST_SAMPLE), k == 0);
+            assert_eq!(o.flags.contains(PidFlags::FIRST_SAMPLE), k == 0);
         }
     }
 
@@ -487,7 +656,7 @@ mod tests {
         assert_eq!(o.u.raw(), 19_661); // round(0.3·2^16)
         let o = c.step(&mut s, q(100), q(0));
         assert_eq!(o.u, c.u_limit());
-        assert!(o.flags.contains(ControlFlags::OUTPUT_SATURATED));
+        assert!(o.flags.contains(PidFlags::OUTPUT_SATURATED));
         let o = c.step(&mut s, q(-100), q(0));
         assert_eq!(o.u.raw(), -c.u_limit().raw());
     }
@@ -503,11 +672,11 @@ mod tests {
         assert_eq!(s.integral(), c.integrator_limit());
         // A huge error saturates the output: the integrator (already at its limit) stays.
         let o = c.step(&mut s, q(10_000), q(0));
-        assert!(o.flags.contains(ControlFlags::OUTPUT_SATURATED));
+        assert!(o.flags.contains(PidFlags::OUTPUT_SATURATED));
         // Conditional integration: from zero, a saturating error does not grow the integrator.
         let mut s = c.new_state();
         let o = c.step(&mut s, q(10_000), q(0));
-        assert!(o.flags.contains(ControlFlags::INTEGRATION_HELD));
+        assert!(o.flags.contains(PidFlags::INTEGRATION_HELD));
         assert_eq!(s.integral(), SignalI16F16::ZERO);
     }
 
@@ -521,8 +690,8 @@ mod tests {
         for _ in 0..5 {
             let o = c.step(&mut s, q(2), q(2));
             assert_eq!(o.u, manual);
-            assert!(o.flags.contains(ControlFlags::MANUAL));
-            assert!(!o.flags.contains(ControlFlags::TRACKING_LIMITED));
+            assert!(o.flags.contains(PidFlags::MANUAL));
+            assert!(!o.flags.contains(PidFlags::TRACKING_LIMITED));
         }
         s.set_enabled(true);
         let o = c.step(&mut s, q(2), q(2));
@@ -531,7 +700,7 @@ mod tests {
         s.set_enabled(false);
         s.set_manual_output(SignalI16F16::from_f64(0.5).unwrap());
         let o = c.step(&mut s, q(2), q(2));
-        assert!(o.flags.contains(ControlFlags::TRACKING_LIMITED));
+        assert!(o.flags.contains(PidFlags::TRACKING_LIMITED));
     }
 
     #[test]
@@ -631,5 +800,13 @@ mod tests {
             .build(),
             Err(E::ReferenceLowPass(-3.0))
         );
+    }
+
+    #[test]
+    fn flags_map_to_status() {
+        let f = PidFlags::MANUAL | PidFlags::ARITHMETIC_SATURATED;
+        assert_eq!(f.status(), Status::HELD | Status::SATURATED);
+        assert_eq!(PidFlags::OUTPUT_SATURATED.status(), Status::NONE);
+        assert!(f.contains(PidFlags::MANUAL) && !f.contains(PidFlags::FIRST_SAMPLE));
     }
 }

@@ -33,8 +33,9 @@
 //! complex or outside `[pole_min, pole_max]`, when b has the wrong sign (a reversed sensor or
 //! drive) or lies outside `[gain_min, gain_max]`, or when a gain does not fit the [`Gain`] format.
 
-use super::{ConfigError, Gain};
+use super::ConfigError;
 use crate::num::fixed::ParamI12F20;
+use crate::num::gain::Gain;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Closed-loop pole choices (z-plane radii, real).
@@ -183,6 +184,19 @@ pub struct ModelGains {
     pub kd2_settle: Gain,
     /// Settle Ki (per sample) on e.
     pub ki_settle: Gain,
+}
+
+impl ModelGains {
+    /// Every gain zero (no model: the baseline runs).
+    pub const ZERO: Self = Self {
+        kp_seek: Gain::ZERO,
+        kd2_seek: Gain::ZERO,
+        kv_ff: Gain::ZERO,
+        ka_ff: Gain::ZERO,
+        kp_settle: Gain::ZERO,
+        kd2_settle: Gain::ZERO,
+        ki_settle: Gain::ZERO,
+    };
 }
 
 /// θ = [a₁ … a_na, b₁ …] → the velocity model, with the supervisor's checks.

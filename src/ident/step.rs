@@ -166,6 +166,64 @@ impl<const N: usize, S> IdentifierState<N, S> {
     }
 }
 
+/// What an identifier reported in one sample: what the servo's supervisor judges the model by.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModelReport {
+    /// The estimator's flags.
+    pub status: Status,
+    /// Its prediction error ε, in the conditioned output's unit (quanta per sample on velocity).
+    pub eps: SignalI16F16,
+}
+
+/// An on-line identifier the servo can run beside its controller: one call per sample, a
+/// [`ModelReport`] for the supervisor, θ for the controller's redesigns. A new identifier is a
+/// new type implementing this (the servo does not change).
+pub trait Identifier {
+    /// Everything one sample mutates.
+    type State;
+    /// What one sample produced.
+    type Output: Copy;
+    /// A fresh state.
+    fn new_state(&self) -> Self::State;
+    /// One sample. Never panics.
+    fn identify(&self, state: &mut Self::State, sample: &Sample) -> Self::Output;
+    /// A sample that could not be read: θ and P held. Never panics.
+    fn reject(&self, state: &mut Self::State) -> Self::Output;
+    /// The report of one output.
+    fn report(output: &Self::Output) -> ModelReport;
+    /// The current estimate θ.
+    fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20];
+}
+
+impl<const N: usize, M: Estimator<N>> Identifier for IdentifierConfig<N, M> {
+    type State = IdentifierState<N, M::State>;
+    type Output = StepOutput<N>;
+
+    fn new_state(&self) -> Self::State {
+        IdentifierConfig::new_state(self)
+    }
+
+    fn identify(&self, state: &mut Self::State, sample: &Sample) -> StepOutput<N> {
+        step(self, state, sample)
+    }
+
+    fn reject(&self, state: &mut Self::State) -> StepOutput<N> {
+        reject(self, state)
+    }
+
+    fn report(output: &StepOutput<N>) -> ModelReport {
+        ModelReport {
+            status: output.status,
+            eps: output.eps,
+        }
+    }
+
+    fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20] {
+        self.model.theta(&state.model)
+    }
+}
+
 /// One sample through the identifier. Never panics.
 pub fn step<const N: usize, M: Estimator<N>>(
     config: &IdentifierConfig<N, M>,

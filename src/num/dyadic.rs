@@ -27,6 +27,8 @@
 //! instruction, no 64-bit division). Multiplies and bit counts go through [`crate::num::wide`], so Armv6-M
 //! does not call `__aeabi_lmul`/`__clzsi2`.
 
+use crate::num::float_bits::decode_f64;
+
 /// Smallest exponent; values below `2^(EXP_MIN+31)` flush to the smallest positive number or zero.
 pub const EXP_MIN: i32 = -16_384;
 /// Largest exponent; larger values saturate to the largest representable number.
@@ -253,15 +255,8 @@ impl Dyadic {
         if x == 0.0 {
             return Some(Self::ZERO);
         }
-        let bits = x.to_bits();
-        let raw_exp = ((bits >> 52) & 0x7FF) as i32;
-        let frac = bits & ((1u64 << 52) - 1);
-        if raw_exp == 0 {
-            // Subnormal: value = frac · 2^-1074.
-            return Some(Self::from_u64(frac, -1074));
-        }
-        // Normal: value = (2^52 + frac) · 2^(raw_exp − 1075).
-        Some(Self::from_u64((1u64 << 52) | frac, raw_exp - 1075))
+        let (_, m, e) = decode_f64(x);
+        Some(Self::from_u64(m, e))
     }
 
     /// To `f64` (rounded to 53 bits; exact for exponents within f64's range, else 0 or ∞).

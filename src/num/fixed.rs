@@ -27,6 +27,7 @@
 //! Inside the path every narrowing is saturating and reported (`Status::SATURATED`).
 
 use crate::error::BoundaryError;
+use crate::num::float_bits::decode_f64;
 
 /// A signal sample in I16F16: `value = raw / 2^16`, range [−32768, 32768), step 2⁻¹⁶ ≈ 1.5·10⁻⁵.
 ///
@@ -51,16 +52,8 @@ pub const PARAM_FRAC_BITS: u32 = 20;
 /// to 53 significant bits, then truncated. Equal to the `f64` expression for every such x
 /// (`from_f64_equals_the_float_expression`).
 fn round_half_away_f64(x: f64, frac: u32) -> i64 {
-    let bits = x.to_bits();
-    let negative = bits >> 63 != 0;
-    let biased = ((bits >> 52) & 0x7ff) as i64;
-    let fraction = bits & ((1 << 52) - 1);
-    // |x| = m · 2^e: normal m = 2^52 + fraction, e = biased − 1075; subnormal e = −1074.
-    let (m, e) = if biased == 0 {
-        (fraction, -1074)
-    } else {
-        (fraction | (1 << 52), biased - 1075)
-    };
+    let (negative, m, e) = decode_f64(x);
+    let e = i64::from(e);
     if m == 0 {
         return 0;
     }

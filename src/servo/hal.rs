@@ -1,6 +1,6 @@
 //! I/O at the boundary through embedded-hal 1.0: the drive as PWM duty cycles
 //! ([`embedded_hal::pwm::SetDutyCycle`]), the position as a small sensor trait of ours, and
-//! [`ControlLoop`], which connects them to the scheduled controller — so the same code runs on a
+//! [`ControlLoop`], which connects them to the servo's step — so the same code runs on a
 //! board, in QEMU and on the host (with fake PWM channels and sensors).
 //!
 //! # Drive mapping
@@ -9,7 +9,9 @@
 //! either on one of two H-bridge channels ([`HBridge`]: the other one at 0 %) or on one channel
 //! plus a direction pin ([`PwmDirection`]).
 
-use crate::control::scheduled::{ModelReport, ScheduledConfig, ScheduledOutput, ScheduledState};
+use super::{ServoConfig, ServoOutput, ServoState};
+use crate::control::Controller;
+use crate::ident::step::Identifier;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::SignalI16F16;
 use embedded_hal::digital::OutputPin;
@@ -111,68 +113,41 @@ impl<P: SetDutyCycle, D: OutputPin> Drive for PwmDirection<P, D> {
     }
 }
 
-/// One tick of the loop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Tick {
-    /// The controller's output.
-    pub output: ScheduledOutput,
-    /// The position used (the last good one when the sensor failed).
-    pub y: PositionI48F16,
-    /// False when the sensor failed and the last good position was held.
-    pub sensor_ok: bool,
-}
-
-/// Sensor → [`ScheduledConfig::step`] → drive. A failed reading holds the last good position
-/// (sample-and-hold) and is reported to the supervisor as [`crate::Status::INPUT_REJECTED`],
-/// which distrusts the model: the loop never stalls.
+/// Sensor → [`ServoConfig::step`] → drive. A failed reading goes through
+/// [`ServoConfig::step_lost`] (the last good position held, the model distrusted): the loop never
+/// stalls.
 #[derive(Debug)]
 pub struct ControlLoop<S, D> {
     /// The sensor.
     pub sensor: S,
     /// The drive.
     pub drive: D,
-    last_counts: i64,
 }
 
 impl<S: PositionSensor, D: Drive> ControlLoop<S, D> {
-    /// A loop whose first held position is `initial_counts`.
-    pub fn new(sensor: S, drive: D, initial_counts: i64) -> Self {
-        Self {
-            sensor,
-            drive,
-            last_counts: initial_counts,
-        }
+    /// A loop on `sensor` and `drive`.
+    pub fn new(sensor: S, drive: D) -> Self {
+        Self { sensor, drive }
     }
 
-    /// One sample: read, step, drive.
+    /// One sample: read, step, drive. The output's `identifier` status carries
+    /// [`crate::Status::INPUT_REJECTED`] when the reading failed.
     ///
     /// # Errors
-    /// The drive's error (the controller state has advanced; the caller decides what to do with a
+    /// The drive's error (the servo state has advanced; the caller decides what to do with a
     /// drive that cannot be written).
-    pub fn tick(
+    pub fn tick<C: Controller, I: Identifier>(
         &mut self,
-        config: &ScheduledConfig,
-        state: &mut ScheduledState,
+        config: &ServoConfig<C, I>,
+        state: &mut ServoState<C, I>,
         reference: PositionI48F16,
-        report: &ModelReport,
-    ) -> Result<Tick, D::Error> {
-        let (counts, sensor_ok) = match self.sensor.read_counts() {
-            Ok(c) => (c, true),
-            Err(_) => (self.last_counts, false),
+    ) -> Result<ServoOutput<I::Output>, D::Error> {
+        let output = match self.sensor.read_counts() {
+            Ok(counts) => config.step(state, reference, PositionI48F16::from_counts(counts)),
+            Err(_) => config.step_lost(state, reference),
         };
-        self.last_counts = counts;
-        let mut report = *report;
-        if !sensor_ok {
-            report.status.insert(crate::Status::INPUT_REJECTED);
-        }
-        let y = PositionI48F16::from_counts(counts);
-        let output = config.step(state, reference, y, &report);
         self.drive.apply(output.u)?;
-        Ok(Tick {
-            output,
-            y,
-            sensor_ok,
-        })
+        Ok(output)
     }
 }
 

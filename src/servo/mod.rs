@@ -1,58 +1,87 @@
-//! The firmware's whole per-sample step (issue 6): the gain-scheduled position controller, the
-//! on-line identifier it is designed from, and the paper's best model identified beside them at
-//! half the rate — one function, called by the firmware's timer interrupt, by `sledid control`'s
-//! closed loop on the twin, and by the bench image.
+//! The servo: the firmware's whole per-sample step — a position controller, the on-line
+//! identifier it is designed from, and the paper's best model identified beside them at half the
+//! rate — one function, called by the firmware's timer interrupt, by `sledid control`'s closed
+//! loop on the twin, and by the bench image.
 //!
 //! # One sample k (positions in quanta, u in full scale)
 //! ```text
-//! u(k)      = controller(r(k), y(k), report(k−1))           sledid::control::scheduled (supervisor inside)
-//! report(k) = identifier(y(k), u(k), r(k))                  ARX on velocity: sledid::ident::step::step, N = 2
-//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    sledid::ident::decimate, two channels
-//! every 2nd sample: Wiener(y_c↓2, u↓2)                      sledid::ident::nonlinear, adapting in Settle/Hold only
+//! hand-over: a redesign due at k is adopted (or, not delivered, dropped and flagged)   handover
+//! u(k)      = controller(r(k), y(k), report(k−1))           any crate::control::Controller
+//! report(k) = identifier(y(k), u(k), r(k))                  any crate::ident::step::Identifier
+//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    crate::ident::decimate, two channels
+//! every 2nd sample: Wiener(y_c↓2, u↓2)                      crate::ident::nonlinear, adapting in Settle/Hold only
+//! the controller asks for a redesign → a job posted, due at k + L
 //! ```
 //! The paper's conclusion is that different models belong to different parts of a step response:
 //! the velocity ARX model drives the seek/settle gains (it is what pole placement needs), while the
-//! Wiener model — the paper's best, after down-sampling by 2 — learns the settle dynamics around the
-//! reference, where it is valid, so its estimator is held during seeks (it still simulates).
+//! Wiener model — the paper's best, after down-sampling by 2 — learns the settle dynamics around
+//! the reference, where it is valid, so its estimator is held during seeks (it still simulates).
 //!
-//! The slow-rate gain redesign is *not* part of the step: when [`LoopState::redesign_pending`] the
-//! main loop calls [`LoopConfig::redesign`] (f32, outside the interrupt).
+//! # Configuration and state
+//! [`ServoConfig`] is validated and immutable while the loop runs; everything the loop changes —
+//! histories, the controller's gains and latches, the identifier's θ and P, the redesign in flight —
+//! is in [`ServoState`]. The slow-rate redesign is not part of the step: the step posts a job
+//! ([`ServoState::take_job`]), the background runs [`ServoConfig::redesign`] and hands the result
+//! back ([`ServoState::deliver`]), and the step of sample k + L adopts it ([`handover`]).
+//!
+//! # Seams
+//! [`ServoConfig`] is generic over its controller `C` ([`Controller`]) and its identifier `I`
+//! ([`Identifier`]); [`ServoDesign`] builds the product's composition ([`SledServo`]: the
+//! scheduled controller on the ARX(1,1) velocity identifier). [`ServoConfig::new`] composes any
+//! other pair.
 
 use crate::control::{
-    ModelReport, Redesign, Region, ScheduledConfig, ScheduledDesign, ScheduledFlags, ScheduledState,
+    ControlFlags, ControlInput, Controller, ModelReport, Region, ScheduledConfig, ScheduledDesign,
 };
 use crate::error::ConfigError;
 use crate::ident::conditioning::Conditioning;
 use crate::ident::decimate::{DecimatorConfig, DecimatorState};
-use crate::ident::linear::{Estimate, LinearDesign, Structure};
+use crate::ident::linear::{Estimate, LinearConfig, LinearDesign, Structure};
 use crate::ident::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
 use crate::ident::rls::{AntiWindup, RlsDesign};
-use crate::ident::step::{IdentifierConfig, IdentifierDesign, IdentifierState, StepOutput, step};
+use crate::ident::step::{Identifier, IdentifierConfig, IdentifierDesign, StepOutput};
 use crate::num::boundary::{PositionI48F16, Sample};
 use crate::num::fixed::SignalI16F16;
 use crate::words::{WordReader, WordWriter, Words};
 
 pub mod hal;
+pub mod handover;
+
+pub use handover::{Handover, HandoverEvent, Posted, Ticket};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity).
 pub const VELOCITY_N: usize = 2;
 /// Parameters of the first-order Wiener model.
 pub const WIENER_N: usize = 5;
 
-/// User-facing settings of the whole loop.
+/// The product's identifier: ARX(1,1) on the velocity.
+pub type VelocityIdentifier = IdentifierConfig<VELOCITY_N, LinearConfig<VELOCITY_N>>;
+
+/// The product's servo: the scheduled controller on the velocity identifier.
+pub type SledServo = ServoConfig<ScheduledConfig, VelocityIdentifier>;
+
+/// The state of [`SledServo`].
+pub type SledServoState = ServoState<ScheduledConfig, VelocityIdentifier>;
+
+/// What one sample of [`SledServo`] produced.
+pub type SledServoOutput = ServoOutput<StepOutput<VELOCITY_N>>;
+
+/// User-facing settings of the product's servo.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LoopDesign {
+pub struct ServoDesign {
     /// The gain-scheduled controller (its baseline PID is the fallback).
     pub controller: ScheduledDesign,
     /// The identifier the controller's gains are placed from.
     pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
     /// The Wiener model at 2·Ts on the centred position (`None`: not run).
     pub wiener: Option<NonlinearDesign<WIENER_N>>,
+    /// L: a redesign requested by sample k is adopted at sample k + L (≥ 1).
+    pub handover_latency_samples: u16,
 }
 
-/// The controller's identifier as the loop expects it: ARX(1, 1) on the velocity Δy against u
-/// (the first-order velocity model `sledid::control::placement` places gains from), started from the
-/// velocity model `prior` = (a, b), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100,
+/// The controller's identifier as the servo expects it: ARX(1, 1) on the velocity Δy against u
+/// (the first-order velocity model `crate::control::placement` places gains from), started from
+/// the velocity model `prior` = (a, b), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100,
 /// outlier gate 40 quanta per sample (16 in a row).
 pub fn velocity_identifier(
     prior: (f64, f64),
@@ -71,90 +100,381 @@ pub fn velocity_identifier(
     IdentifierDesign::new(Conditioning::DifferencedOutput, model)
 }
 
-/// Validated configuration of the loop.
+/// Validated configuration of a servo (`Copy` when its parts are): immutable while it runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LoopConfig {
-    controller: ScheduledConfig,
-    velocity: IdentifierConfig<VELOCITY_N>,
+pub struct ServoConfig<C, I> {
+    controller: C,
+    identifier: I,
     wiener: Option<NonlinearConfig<WIENER_N>>,
     decimator: DecimatorConfig,
+    latency: u32,
 }
 
-/// Everything one sample mutates.
-#[derive(Clone, Debug)]
-pub struct LoopState {
-    controller: ScheduledState,
-    velocity: IdentifierState<VELOCITY_N>,
+/// Everything one sample (or an adopted redesign) mutates.
+pub struct ServoState<C: Controller, I: Identifier> {
+    /// Sample index k (wraps after 2³² samples, 22.6 days at Ts).
+    k: u32,
+    controller: C::State,
+    identifier: I::State,
     report: ModelReport,
+    /// The last position read (held through a lost reading).
+    last_y: PositionI48F16,
     wiener: Option<NonlinearState<WIENER_N>>,
     decimate_y: DecimatorState,
     decimate_u: DecimatorState,
+    handover: Handover<C::Job, C::Design>,
 }
+
+/// What the servo itself did in one sample (beside the controller's [`ControlFlags`]).
+#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ServoFlags(u8);
+
+impl ServoFlags {
+    /// No flag.
+    pub const NONE: Self = Self(0);
+    /// A redesign job was posted this sample (due at k + L).
+    pub const REDESIGN_POSTED: Self = Self(1 << 0);
+    /// A redesign was adopted before this sample's step.
+    pub const REDESIGN_ADOPTED: Self = Self(1 << 1);
+    /// A redesign due this sample was not delivered in time: the old values stay.
+    pub const HANDOVER_MISSED: Self = Self(1 << 2);
+
+    /// All flags with their names, in bit order.
+    pub const NAMES: [(Self, &'static str); 3] = [
+        (Self::REDESIGN_POSTED, "redesign_posted"),
+        (Self::REDESIGN_ADOPTED, "redesign_adopted"),
+        (Self::HANDOVER_MISSED, "handover_missed"),
+    ];
+}
+
+crate::flag_set_impl!(ServoFlags, u8);
 
 /// What one sample produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct LoopOutput {
+pub struct ServoOutput<O> {
     /// The drive u(k), fraction of full scale.
     pub u: SignalI16F16,
     /// The controller's region.
     pub region: Region,
     /// The controller's flags (`FALLBACK` when the supervisor distrusts the model).
-    pub control: ScheduledFlags,
-    /// The velocity identifier's output (ŷ, ε, θ, status).
-    pub velocity: StepOutput<VELOCITY_N>,
+    pub control: ControlFlags,
+    /// The servo's own flags (redesign hand-over).
+    pub servo: ServoFlags,
+    /// The identifier's output (for the velocity identifier: ŷ, ε, θ, status).
+    pub identifier: O,
     /// The Wiener estimator's output, on every second sample.
     pub wiener: Option<Estimate>,
 }
 
-impl LoopDesign {
+impl ServoDesign {
+    /// The default servo around `controller`: the velocity identifier from the controller's
+    /// prior (or a = 0.8, b = 20 without one), no Wiener model, L = 1.
+    pub fn new(controller: ScheduledDesign) -> Self {
+        Self {
+            velocity: velocity_identifier(controller.prior_model.unwrap_or((0.8, 20.0))),
+            controller,
+            wiener: None,
+            handover_latency_samples: 1,
+        }
+    }
+
     /// Validates and quantises every part.
     ///
     /// # Errors
-    /// The first part's [`ConfigError`].
-    pub fn build(&self) -> Result<LoopConfig, ConfigError> {
-        Ok(LoopConfig {
-            controller: self.controller.build()?,
-            velocity: self.velocity.build()?,
-            wiener: match &self.wiener {
+    /// The first part's [`ConfigError`], or [`ConfigError::HandoverLatency`] for L = 0.
+    pub fn build(&self) -> Result<SledServo, ConfigError> {
+        ServoConfig::new(
+            self.controller.build()?,
+            self.velocity.build()?,
+            match &self.wiener {
                 Some(w) => Some(w.build()?),
                 None => None,
             },
-            decimator: DecimatorConfig::HALF_BAND_23,
-        })
+            self.handover_latency_samples,
+        )
     }
 
     /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
     /// velocity identifier's ([`IdentifierDesign::put_words`]), the Wiener model's if any (a
-    /// `bool`, then [`NonlinearDesign::put_words`]), then the controller's ([`ScheduledConfig`];
-    /// last, so that [`LoopConfig::from_words`] can decode the largest part straight into its
-    /// result instead of into a copy on the stack). [`LoopConfig::from_words`] reads them back into the
-    /// configuration [`Self::build`] gives. Returns the number of words written.
+    /// `bool`, then [`NonlinearDesign::put_words`]), L, then the controller's
+    /// ([`ScheduledConfig`]; last, so that [`ServoConfig::from_words`] can decode the largest part
+    /// straight into its result instead of into a copy on the stack). Returns the number of words
+    /// written.
     ///
     /// # Errors
     /// The first part's [`ConfigError`], or [`ConfigError::Words`] when `out` is too short
-    /// ([`LOOP_WORDS_MAX`] always suffices).
+    /// ([`SERVO_WORDS_MAX`] always suffices).
     pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
+        let built = self.build()?;
         let mut w = WordWriter::new(out);
         self.velocity.put_words(&mut w)?;
         self.wiener.is_some().put(&mut w)?;
         if let Some(wiener) = &self.wiener {
             wiener.put_words(&mut w)?;
         }
-        self.controller.build()?.put(&mut w)?;
+        built.latency.put(&mut w)?;
+        built.controller.put(&mut w)?;
         Ok(w.len())
     }
 }
 
-/// A buffer size that holds the words of any [`LoopDesign`]: at most 181 (25 for the velocity
-/// identifier with a stuck-sensor check and a pole radius, 22 for the Wiener model, 134 for the
-/// controller with both input maps).
-pub const LOOP_WORDS_MAX: usize = 192;
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 181 (25 for the velocity
+/// identifier with a stuck-sensor check and a pole radius, 22 for the Wiener model, 1 for L, 133
+/// for the controller with both input maps).
+pub const SERVO_WORDS_MAX: usize = 192;
 
-impl LoopConfig {
-    /// The configuration from the words of [`LoopDesign::to_words`], computed on the host: every
+impl<C: Controller, I: Identifier> ServoConfig<C, I> {
+    /// Composes a servo from built parts: any controller on any identifier, the Wiener model
+    /// beside them if given, a redesign adopted `latency_samples` after its request.
+    ///
+    /// # Errors
+    /// [`ConfigError::HandoverLatency`] for a latency of 0.
+    pub fn new(
+        controller: C,
+        identifier: I,
+        wiener: Option<NonlinearConfig<WIENER_N>>,
+        latency_samples: u16,
+    ) -> Result<Self, ConfigError> {
+        if latency_samples == 0 {
+            return Err(ConfigError::HandoverLatency(latency_samples));
+        }
+        Ok(Self {
+            controller,
+            identifier,
+            wiener,
+            decimator: DecimatorConfig::HALF_BAND_23,
+            latency: u32::from(latency_samples),
+        })
+    }
+
+    /// A fresh state.
+    pub fn new_state(&self) -> ServoState<C, I> {
+        ServoState {
+            k: 0,
+            controller: self.controller.new_state(),
+            identifier: self.identifier.new_state(),
+            report: ModelReport::default(),
+            last_y: PositionI48F16::default(),
+            wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
+            decimate_y: self.decimator.new_state(),
+            decimate_u: self.decimator.new_state(),
+            handover: Handover::new(),
+        }
+    }
+
+    /// The controller configuration.
+    pub fn controller(&self) -> &C {
+        &self.controller
+    }
+
+    /// The identifier configuration.
+    pub fn identifier(&self) -> &I {
+        &self.identifier
+    }
+
+    /// L: samples from a redesign's request to its adoption.
+    pub fn handover_latency(&self) -> u32 {
+        self.latency
+    }
+
+    /// The background's work on a posted job (outside the sample interrupt; it may take up to L
+    /// sample periods).
+    pub fn redesign(&self, posted: &Posted<C::Job>) -> C::Design {
+        self.controller.redesign(&posted.job)
+    }
+
+    /// The background's whole turn at once (the host's, between two samples): takes the posted
+    /// job, if any, redesigns and delivers. Returns the design delivered.
+    pub fn run_background(&self, state: &mut ServoState<C, I>) -> Option<C::Design> {
+        let posted = state.take_job()?;
+        let design = self.redesign(&posted);
+        state.deliver(posted.ticket, design);
+        Some(design)
+    }
+
+    /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
+    pub fn step(
+        &self,
+        state: &mut ServoState<C, I>,
+        r: PositionI48F16,
+        y: PositionI48F16,
+    ) -> ServoOutput<I::Output> {
+        self.step_with_drive(state, r, Some(y), None)
+    }
+
+    /// A sample whose position could not be read: the last position read is held
+    /// (sample-and-hold), the supervisor sees [`crate::Status::INPUT_REJECTED`] (which distrusts
+    /// the model), the identifier holds θ and P. The loop goes on. Never panics.
+    pub fn step_lost(
+        &self,
+        state: &mut ServoState<C, I>,
+        r: PositionI48F16,
+    ) -> ServoOutput<I::Output> {
+        self.step_with_drive(state, r, None, None)
+    }
+
+    /// Shadow mode, for commissioning beside a controller already in charge: the servo computes
+    /// its drive u(k) (returned, not applied), but the identifiers learn from `u_applied`, the
+    /// drive the plant really received — the only input that explains y. Never panics.
+    pub fn step_shadow(
+        &self,
+        state: &mut ServoState<C, I>,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        u_applied: SignalI16F16,
+    ) -> ServoOutput<I::Output> {
+        self.step_with_drive(state, r, Some(y), Some(u_applied))
+    }
+
+    fn step_with_drive(
+        &self,
+        state: &mut ServoState<C, I>,
+        r: PositionI48F16,
+        measured: Option<PositionI48F16>,
+        u_applied: Option<SignalI16F16>,
+    ) -> ServoOutput<I::Output> {
+        let mut servo = ServoFlags::NONE;
+        let y = measured.unwrap_or(state.last_y);
+        state.last_y = y;
+        let mut report = state.report;
+        if measured.is_none() {
+            report
+                .status
+                .insert(crate::ident::status::Status::INPUT_REJECTED);
+        }
+        match state.handover.due(state.k) {
+            HandoverEvent::Idle => {}
+            HandoverEvent::Adopt(d) => {
+                self.controller.adopt(&mut state.controller, &d);
+                servo.insert(ServoFlags::REDESIGN_ADOPTED);
+            }
+            HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
+        }
+        let input = ControlInput { r, y, report };
+        let out = self.controller.step(&mut state.controller, &input);
+        let u_plant = u_applied.unwrap_or(out.u);
+        let identified = match measured {
+            Some(y) => self
+                .identifier
+                .identify(&mut state.identifier, &Sample { y, u: u_plant, r }),
+            None => self.identifier.reject(&mut state.identifier),
+        };
+        state.report = I::report(&identified);
+        let mut wiener = None;
+        if let (Some(cfg), Some(st)) = (&self.wiener, state.wiener.as_mut()) {
+            let mut sat = false;
+            let y_c = y.offset_from(r, &mut sat);
+            let dy = self.decimator.push(&mut state.decimate_y, y_c);
+            let du = self.decimator.push(&mut state.decimate_u, u_plant);
+            if let (Some(dy), Some(du)) = (dy, du) {
+                st.set_enabled(out.region != Region::Seek);
+                let mut e = cfg.step(st, dy.y, du.y);
+                e.status |= dy.status | du.status;
+                e.status
+                    .set_if(crate::ident::status::Status::SATURATED, sat);
+                wiener = Some(e);
+            }
+        }
+        if state.handover.is_free() {
+            let theta = self.identifier.theta(&state.identifier);
+            if let Some(job) = self.controller.redesign_job(&mut state.controller, theta) {
+                state.handover.post(job, state.k.wrapping_add(self.latency));
+                servo.insert(ServoFlags::REDESIGN_POSTED);
+            }
+        }
+        state.k = state.k.wrapping_add(1);
+        ServoOutput {
+            u: out.u,
+            region: out.region,
+            control: out.flags,
+            servo,
+            identifier: identified,
+            wiener,
+        }
+    }
+}
+
+impl<C: Controller, I: Identifier> ServoState<C, I> {
+    /// The next sample's index k.
+    pub fn sample_index(&self) -> u32 {
+        self.k
+    }
+
+    /// The background's side of the hand-over: the job posted by a step, once.
+    pub fn take_job(&mut self) -> Option<Posted<C::Job>> {
+        self.handover.take_job()
+    }
+
+    /// The background's side of the hand-over: the finished redesign for `ticket`; false when
+    /// that job is no longer in flight (its due sample has passed).
+    pub fn deliver(&mut self, ticket: Ticket, design: C::Design) -> bool {
+        self.handover.deliver(ticket, design)
+    }
+
+    /// True while a redesign is in flight (posted, not yet due).
+    pub fn redesign_in_flight(&self) -> bool {
+        !self.handover.is_free()
+    }
+
+    /// The controller's state.
+    pub fn controller(&self) -> &C::State {
+        &self.controller
+    }
+
+    /// The identifier's state.
+    pub fn identifier(&self) -> &I::State {
+        &self.identifier
+    }
+
+    /// The Wiener estimator's state, if it runs.
+    pub fn wiener(&self) -> Option<&NonlinearState<WIENER_N>> {
+        self.wiener.as_ref()
+    }
+}
+
+impl<C: Controller, I: Identifier> Clone for ServoState<C, I>
+where
+    C::State: Clone,
+    I::State: Clone,
+{
+    fn clone(&self) -> Self {
+        Self {
+            k: self.k,
+            controller: self.controller.clone(),
+            identifier: self.identifier.clone(),
+            report: self.report,
+            last_y: self.last_y,
+            wiener: self.wiener.clone(),
+            decimate_y: self.decimate_y.clone(),
+            decimate_u: self.decimate_u.clone(),
+            handover: self.handover,
+        }
+    }
+}
+
+impl<C: Controller, I: Identifier> core::fmt::Debug for ServoState<C, I>
+where
+    C::State: core::fmt::Debug,
+    I::State: core::fmt::Debug,
+    C::Job: core::fmt::Debug,
+    C::Design: core::fmt::Debug,
+{
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("ServoState")
+            .field("k", &self.k)
+            .field("controller", &self.controller)
+            .field("identifier", &self.identifier)
+            .field("handover", &self.handover)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SledServo {
+    /// The configuration from the words of [`ServoDesign::to_words`], computed on the host: every
     /// field checked as the parts' `build` functions check them (integer checks; only the two RLS
     /// designs are built from their `f64` settings, see [`crate::words`]). The decimator is the
-    /// loop's fixed half-band filter.
+    /// servo's fixed half-band filter.
     ///
     /// # Errors
     /// [`ConfigError::Words`] at the first word that is missing, invalid or fails its check (or
@@ -174,130 +494,25 @@ impl LoopConfig {
     pub fn from_words_into(words: &[u32], slot: &mut Option<Self>) -> Result<(), ConfigError> {
         *slot = None;
         let mut r = WordReader::new(words);
-        let velocity = IdentifierConfig::take_words(&mut r)?;
+        let identifier = IdentifierConfig::take_words(&mut r)?;
         let wiener = match bool::take(&mut r) {
             true => Some(NonlinearConfig::take_words(&mut r)?),
             false => None,
         };
+        let latency = u32::take(&mut r);
+        r.check((1..=u32::from(u16::MAX)).contains(&latency));
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
-            velocity,
+            identifier,
             wiener,
             decimator: DecimatorConfig::HALF_BAND_23,
+            latency,
         });
         let done = r.finish();
         if done.is_err() {
             *slot = None;
         }
         done
-    }
-
-    /// A fresh state.
-    pub fn new_state(&self) -> LoopState {
-        LoopState {
-            controller: self.controller.new_state(),
-            velocity: self.velocity.new_state(),
-            report: ModelReport::default(),
-            wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
-            decimate_y: self.decimator.new_state(),
-            decimate_u: self.decimator.new_state(),
-        }
-    }
-
-    /// The controller configuration (gains in use, fallback).
-    pub fn controller(&self) -> &ScheduledConfig {
-        &self.controller
-    }
-
-    /// The slow-rate redesign of the controller's gains from the identifier's latest θ (call from
-    /// the main loop when [`LoopState::redesign_pending`], not from the interrupt).
-    pub fn redesign(&mut self, state: &mut LoopState) -> Redesign {
-        self.controller
-            .redesign(&mut state.controller, state.velocity.model().theta())
-    }
-
-    /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
-    pub fn step(&self, state: &mut LoopState, r: PositionI48F16, y: PositionI48F16) -> LoopOutput {
-        self.step_with_drive(state, r, y, None)
-    }
-
-    /// Shadow mode, for commissioning beside a controller already in charge: the loop computes its
-    /// drive u(k) (returned, not applied), but the identifiers learn from `u_applied`, the drive the
-    /// plant really received — the only input that explains y. Never panics.
-    pub fn step_shadow(
-        &self,
-        state: &mut LoopState,
-        r: PositionI48F16,
-        y: PositionI48F16,
-        u_applied: SignalI16F16,
-    ) -> LoopOutput {
-        self.step_with_drive(state, r, y, Some(u_applied))
-    }
-
-    fn step_with_drive(
-        &self,
-        state: &mut LoopState,
-        r: PositionI48F16,
-        y: PositionI48F16,
-        u_applied: Option<SignalI16F16>,
-    ) -> LoopOutput {
-        let out = self
-            .controller
-            .step(&mut state.controller, r, y, &state.report);
-        let u_plant = u_applied.unwrap_or(out.u);
-        let velocity = step(
-            &self.velocity,
-            &mut state.velocity,
-            &Sample { y, u: u_plant, r },
-        );
-        state.report = ModelReport {
-            status: velocity.status,
-            eps: velocity.eps,
-        };
-        let mut wiener = None;
-        if let (Some(cfg), Some(st)) = (&self.wiener, state.wiener.as_mut()) {
-            let mut sat = false;
-            let y_c = y.offset_from(r, &mut sat);
-            let dy = self.decimator.push(&mut state.decimate_y, y_c);
-            let du = self.decimator.push(&mut state.decimate_u, u_plant);
-            if let (Some(dy), Some(du)) = (dy, du) {
-                st.set_enabled(out.region != Region::Seek);
-                let mut e = cfg.step(st, dy.y, du.y);
-                e.status |= dy.status | du.status;
-                e.status
-                    .set_if(crate::ident::status::Status::SATURATED, sat);
-                wiener = Some(e);
-            }
-        }
-        LoopOutput {
-            u: out.u,
-            region: out.region,
-            control: out.flags,
-            velocity,
-            wiener,
-        }
-    }
-}
-
-impl LoopState {
-    /// The controller asks for a gain redesign (a settle phase began after trusted updates).
-    pub fn redesign_pending(&self) -> bool {
-        self.controller.redesign_pending()
-    }
-
-    /// The controller's state.
-    pub fn controller(&self) -> &ScheduledState {
-        &self.controller
-    }
-
-    /// The velocity identifier's state.
-    pub fn velocity(&self) -> &IdentifierState<VELOCITY_N> {
-        &self.velocity
-    }
-
-    /// The Wiener estimator's state, if it runs.
-    pub fn wiener(&self) -> Option<&NonlinearState<WIENER_N>> {
-        self.wiener.as_ref()
     }
 }

@@ -8,7 +8,7 @@
 //! designs).
 
 use sledid::PositionI48F16;
-use sledid::control::{ConfigError, ControlFlags, DerivativeOn, PidConfig, PidDesign, PidState};
+use sledid::control::{ConfigError, DerivativeOn, PidConfig, PidDesign, PidFlags, PidState};
 use sledid::num::fixed::SignalI16F16;
 
 use crate::twin::{PidParams, SledController};
@@ -183,7 +183,7 @@ pub struct FixedPid {
     config: PidConfig,
     state: PidState,
     u_full_scale_v: f64,
-    last_flags: ControlFlags,
+    last_flags: PidFlags,
 }
 
 impl FixedPid {
@@ -197,7 +197,7 @@ impl FixedPid {
             config,
             state: config.new_state(),
             u_full_scale_v: design.u_full_scale_v,
-            last_flags: ControlFlags::NONE,
+            last_flags: PidFlags::NONE,
         })
     }
 
@@ -209,7 +209,7 @@ impl FixedPid {
     }
 
     /// The flags of the last step.
-    pub fn last_flags(&self) -> ControlFlags {
+    pub fn last_flags(&self) -> PidFlags {
         self.last_flags
     }
 

@@ -9,7 +9,7 @@
 //! sub-directory of `src/bin` so that cargo does not take it for a binary of its own.
 //!
 //! # The step: the whole loop in shadow mode
-//! Each record goes through [`sledid::servo::LoopConfig::step_shadow`]`(r, y, u_recorded)`:
+//! Each record goes through [`sledid::servo::SledServo::step_shadow`]`(r, y, u_recorded)`:
 //! the gain-scheduled controller (with its supervisor) computes its drive beside the rig's own
 //! controller (returned and checksummed, not applied: QEMU has no plant), its ARX(1,1) velocity
 //! identifier and the Wiener model at 2·Ts (after the two-channel half-band ÷2 decimator) learn
@@ -23,12 +23,11 @@
 //! M4F to a step already above its cycle budget (`BENCHMARKS.md`).
 //!
 //! # Redesign rule (deterministic)
-//! The slow-rate gain redesign (f32) is not in the interrupt. A redesign requested by sample k
-//! ([`Run::redesign_pending`]) runs before sample k + 1 is stepped, never later: the firmware's
-//! SysTick handler hands the run to the main loop and steps nothing until it gets it back (a late
-//! tick is counted as a stall, not skipped: the replay resumes at k + 1), and [`replay`] — the
-//! host's run of the same rule — redesigns between the same two samples. A request by the last
-//! sample is left pending in both.
+//! The slow-rate gain redesign (f32) is not in the interrupt, and the interrupt never waits for
+//! it: a redesign requested by sample k is posted as a job ([`sledid::servo::handover`]), the
+//! main loop computes it, and the step of sample k + L adopts it — or, not delivered in time,
+//! keeps the old gains and flags `HANDOVER_MISSED`. [`replay`], the host's run of the same rule,
+//! computes every job between two samples, so the two agree whenever the firmware meets L.
 //!
 //! # Units and constants (EMPS rig, `shared/data` README)
 //! Positions in encoder quanta ([`QUANTUM_M`]), u as a fraction of [`U_FULL_SCALE_V`], the
@@ -46,13 +45,13 @@
 //!
 //! # Checksum
 //! FNV-1a 64 (offset basis `0xcbf29ce484222325`, prime `0x100000001b3`) over, for every sample in
-//! order, the little-endian bytes of the [`LoopOutput`] fields:
+//! order, the little-endian bytes of the [`SledServoOutput`] fields:
 //!
 //! | bytes | field |
 //! |---|---|
 //! | 4 | u, the controller's drive (`i32` raw I16F16) |
 //! | 1 | region (`Region::index`: 0 seek, 1 settle, 2 hold) |
-//! | 2 | controller flags (`ScheduledFlags` bits, `u16`) |
+//! | 2 | controller flags (`ControlFlags` bits, `u16`) |
 //! | 4 × 4 | velocity identifier: y, u, ŷ, ε (`i32` raw each) |
 //! | 2 × 4 | velocity identifier θ = [a₁, b₁] (`i32` raw I12F20) |
 //! | 2 | velocity identifier status bits (`u16`) |
@@ -61,14 +60,17 @@
 //!
 //! 34 bytes per sample, 44 on the samples where the Wiener estimator runs.
 
-use core::borrow::BorrowMut;
+use core::borrow::Borrow;
 use core::fmt;
 
+use sledid::control::scheduled::{RedesignJob, RedesignResult};
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::ident::rls::{AntiWindup, RlsDesign};
-use sledid::servo::{LoopConfig, LoopDesign, LoopOutput, LoopState, VELOCITY_N, WIENER_N};
+use sledid::servo::{
+    Posted, ServoDesign, SledServo, SledServoOutput, SledServoState, Ticket, VELOCITY_N, WIENER_N,
+};
 
 include!("loop_words.rs");
 
@@ -154,7 +156,7 @@ pub fn baseline() -> PidDesign {
 ///   (16 in a row) — `sledid::servo::velocity_identifier`;
 /// - Wiener model at 2·Ts: `from_linear(Wiener, WIENER_PRIOR, WIENER_RANGES)`, λ = 0.995,
 ///   P₀ = 100·I, dead zone ¼ quantum, trace(P) ≤ 100.
-pub fn design() -> LoopDesign {
+pub fn design() -> ServoDesign {
     let mut controller = ScheduledDesign::new(baseline());
     controller.supervisor.pole_max = EMPS_POLE_MAX;
     controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
@@ -174,31 +176,32 @@ pub fn design() -> LoopDesign {
         ..RlsDesign::default()
     };
 
-    LoopDesign {
+    ServoDesign {
         controller,
         velocity,
         wiener: Some(wiener),
+        handover_latency_samples: 1,
     }
 }
 
 /// The configuration the firmware runs: [`LOOP_WORDS`] (generated on the host from [`design`])
-/// decoded and checked by [`LoopConfig::from_words`], without the `f64` build of [`design`].
+/// decoded and checked by [`SledServo::from_words`], without the `f64` build of [`design`].
 ///
 /// # Errors
 /// The words' [`ConfigError`] (none for the committed words; the tests decode them).
 #[allow(dead_code)] // the firmware itself decodes into its static storage: `config_into`
-pub fn config() -> Result<LoopConfig, ConfigError> {
-    LoopConfig::from_words(&LOOP_WORDS)
+pub fn config() -> Result<SledServo, ConfigError> {
+    SledServo::from_words(&LOOP_WORDS)
 }
 
-/// [`config`] decoded into `slot` ([`LoopConfig::from_words_into`]: without a copy of the
+/// [`config`] decoded into `slot` ([`SledServo::from_words_into`]: without a copy of the
 /// controller's part on the stack); `None` in `slot` on an error.
 ///
 /// # Errors
 /// As [`config`].
 #[allow(dead_code)] // the firmware's; the host replays from `design`
-pub fn config_into(slot: &mut Option<LoopConfig>) -> Result<(), ConfigError> {
-    LoopConfig::from_words_into(&LOOP_WORDS, slot)
+pub fn config_into(slot: &mut Option<SledServo>) -> Result<(), ConfigError> {
+    SledServo::from_words_into(&LOOP_WORDS, slot)
 }
 
 /// FNV-1a, 64 bits, over a byte stream.
@@ -242,11 +245,11 @@ impl Fnv1a64 {
     }
 
     /// Folds in one step's outputs (see the module doc for the byte order).
-    pub fn write_output(&mut self, out: &LoopOutput) {
+    pub fn write_output(&mut self, out: &SledServoOutput) {
         self.write(&out.u.raw().to_le_bytes());
         self.write(&[out.region.index()]);
         self.write(&out.control.bits().to_le_bytes());
-        let v = &out.velocity;
+        let v = &out.identifier;
         for raw in [v.y.raw(), v.u.raw(), v.y_hat.raw(), v.eps.raw()] {
             self.write(&raw.to_le_bytes());
         }
@@ -280,15 +283,15 @@ impl Default for Fnv1a64 {
 /// One replay of the loop: configuration, state, and the checksum of everything it produced.
 /// The firmware's SysTick handler and the host replay both step this, one sample at a time.
 ///
-/// `C` holds the configuration: the host owns it (`LoopConfig`, the default); the firmware
-/// borrows it from its own static storage (`&'static mut LoopConfig`), so that the run and the
+/// `C` holds the configuration: the host owns it (`SledServo`, the default); the firmware
+/// borrows it from its own static storage (`&'static mut SledServo`), so that the run and the
 /// configuration are each built in place, one after the other, not in one stack frame.
 #[derive(Clone, Debug)]
-pub struct Run<C = LoopConfig> {
+pub struct Run<C = SledServo> {
     /// The validated configuration of [`design`] (its controller gains swapped by redesigns).
     pub(crate) config: C,
     /// The loop's state.
-    pub(crate) state: LoopState,
+    pub(crate) state: SledServoState,
     checksum: Fnv1a64,
     samples: u32,
     updates: u32,
@@ -310,7 +313,7 @@ impl Run {
     }
 }
 
-impl<C: BorrowMut<LoopConfig>> Run<C> {
+impl<C: Borrow<SledServo>> Run<C> {
     /// A fresh run of a built configuration (infallible, so that the firmware can construct it
     /// in place).
     #[inline(always)]
@@ -330,11 +333,11 @@ impl<C: BorrowMut<LoopConfig>> Run<C> {
 
     /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
     #[inline(never)]
-    pub fn step(&mut self, sample: &Sample) -> LoopOutput {
+    pub fn step(&mut self, sample: &Sample) -> SledServoOutput {
         let out = loop_step(self.config.borrow(), &mut self.state, sample);
         self.checksum.write_output(&out);
         self.samples = self.samples.wrapping_add(1);
-        if out.velocity.status.contains(sledid::Status::UPDATED) {
+        if out.identifier.status.contains(sledid::Status::UPDATED) {
             self.updates = self.updates.wrapping_add(1);
         }
         if out
@@ -346,21 +349,33 @@ impl<C: BorrowMut<LoopConfig>> Run<C> {
         out
     }
 
-    /// The controller asks for a gain redesign (run [`Self::redesign`] before the next sample).
-    pub fn redesign_pending(&self) -> bool {
-        self.state.redesign_pending()
+    /// The background's side: the job a step posted, once.
+    pub fn take_job(&mut self) -> Option<Posted<RedesignJob>> {
+        self.state.take_job()
     }
 
-    /// The slow-rate redesign (f32; from the main loop, not the interrupt), counted by outcome.
-    pub fn redesign(&mut self) -> Redesign {
-        let outcome = self.config.borrow_mut().redesign(&mut self.state);
-        let count = match outcome {
-            Redesign::Applied(_) => &mut self.applied,
-            Redesign::Rejected(_) => &mut self.rejected,
-            Redesign::Skipped => &mut self.skipped,
-        };
-        *count = count.wrapping_add(1);
-        outcome
+    /// The background's side: the finished redesign for a job (counted by outcome when the
+    /// hand-over accepts it).
+    pub fn deliver(&mut self, ticket: Ticket, design: RedesignResult) -> bool {
+        let accepted = self.state.deliver(ticket, design);
+        if accepted {
+            let count = match design.outcome {
+                Redesign::Applied(_) => &mut self.applied,
+                Redesign::Rejected(_) => &mut self.rejected,
+                Redesign::Skipped => &mut self.skipped,
+            };
+            *count = count.wrapping_add(1);
+        }
+        accepted
+    }
+
+    /// The host's background turn between two samples: the posted job, if any, redesigned and
+    /// delivered. Returns its outcome.
+    pub fn background(&mut self) -> Option<Redesign> {
+        let posted = self.take_job()?;
+        let design = self.config.borrow().redesign(&posted);
+        self.deliver(posted.ticket, design);
+        Some(design.outcome)
     }
 
     /// What the run has produced so far.
@@ -368,7 +383,7 @@ impl<C: BorrowMut<LoopConfig>> Run<C> {
         let mut theta_raw = [0i32; N];
         for (dst, t) in theta_raw
             .iter_mut()
-            .zip(self.state.velocity().model().theta())
+            .zip(self.state.identifier().model().theta())
         {
             *dst = t.raw();
         }
@@ -383,7 +398,7 @@ impl<C: BorrowMut<LoopConfig>> Run<C> {
             updates: self.updates,
             wiener_updates: self.wiener_updates,
             redesigns: [self.applied, self.rejected, self.skipped],
-            fallback: self.config.borrow().controller().fallback(),
+            fallback: self.state.controller().fallback(),
             checksum: self.checksum.value(),
             theta_raw,
             wiener_raw,
@@ -402,18 +417,20 @@ pub fn replay(fixture: &[u8]) -> Result<Summary, ConfigError> {
     let mut cursor = Cursor::new();
     while let Some(sample) = cursor.next(fixture) {
         run.step(&sample);
-        if run.redesign_pending() && cursor.clone().next(fixture).is_some() {
-            run.redesign();
-        }
+        run.background();
     }
     Ok(run.summary())
 }
 
-/// The per-sample step alone ([`LoopConfig::step_shadow`] with the recorded drive), kept out of
+/// The per-sample step alone ([`SledServo::step_shadow`] with the recorded drive), kept out of
 /// line so that it exists once in the image and `count_insns.py` can measure it apart from the
 /// checksum.
 #[inline(never)]
-pub fn loop_step(config: &LoopConfig, state: &mut LoopState, sample: &Sample) -> LoopOutput {
+pub fn loop_step(
+    config: &SledServo,
+    state: &mut SledServoState,
+    sample: &Sample,
+) -> SledServoOutput {
     config.step_shadow(state, sample.r, sample.y, sample.u)
 }
 

@@ -18,7 +18,7 @@
 //! lets static friction hold it.
 //!
 //! **Transfers.** Entering Seek or Settle from another law re-initialises I so that v is
-//! continuous (`I = v(k−1) − terms(k)`, clamped to ±I_max; [`ScheduledFlags::TRANSFER_LIMITED`]
+//! continuous (`I = v(k−1) − terms(k)`, clamped to ±I_max; [`ControlFlags::TRANSFER_LIMITED`]
 //! when the clamp binds). Leaving Hold resumes with the frozen integrator. Entering the fallback
 //! primes the baseline PID in manual at the last output (its own bumpless enable), returning
 //! from it re-initialises I from `h(u(k−1))`.
@@ -27,7 +27,7 @@
 //! `SENSOR_STUCK`, `INPUT_REJECTED`, `OUTLIER`) distrusts the model for `untrusted_hold_samples`;
 //! a running mean of |ε| (time constant 32 samples) above `eps_limit_quanta` distrusts it while it
 //! lasts; [`ScheduledConfig::redesign`] refuses models outside the allowed region. In any of
-//! these the baseline PID runs and [`ScheduledFlags::FALLBACK`] is set.
+//! these the baseline PID runs and [`ControlFlags::FALLBACK`] is set.
 //!
 //! # Formats
 //! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`](super::Gain),
@@ -54,17 +54,17 @@ pub mod regions;
 pub mod supervisor;
 
 use super::compensation::InverseInputMap;
+use super::integrator::integrate;
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
-use super::{
-    ConfigError, ControlFlags, LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64,
-};
+use super::{ConfigError, ControlFlags, ControlInput, ControlOutput, Controller, PidFlags};
 use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::gain::{LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
 use crate::words::{WordReader, WordWriter, Words};
 use regions::{Region, RegionDesign, RegionSelector};
-pub use supervisor::{DISTRUST, ModelReport, Redesign, ScheduledFlags};
+use supervisor::{DISTRUST, ModelReport, Redesign};
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -146,8 +146,7 @@ impl ScheduledDesign {
             selector,
             placement: self.placement,
             supervisor: self.supervisor,
-            gains: ModelGains::default(),
-            fallback: true,
+            prior_gains: None,
             integrator_limit_i32f32: i_max,
             u_limit_i32f32: i64::from(baseline.u_limit().raw()) << 16,
             hold_bias: hold.raw(),
@@ -171,15 +170,17 @@ impl ScheduledDesign {
                 &self.supervisor,
             )
             .map_err(|_| ConfigError::InitialModel(a))?;
-            config.gains = super::placement::place(model, &self.placement)
-                .map_err(|_| ConfigError::InitialModel(b))?;
-            config.fallback = false;
+            config.prior_gains = Some(
+                super::placement::place(model, &self.placement)
+                    .map_err(|_| ConfigError::InitialModel(b))?,
+            );
         }
         Ok(config)
     }
 }
 
-/// Validated configuration (`Copy`): swapped by [`ScheduledConfig::redesign`] between samples.
+/// Validated configuration (`Copy`, immutable while the loop runs: the gains a redesign places
+/// live in [`ScheduledState`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ScheduledConfig {
@@ -187,9 +188,8 @@ pub struct ScheduledConfig {
     selector: RegionSelector,
     placement: PlacementDesign,
     supervisor: SupervisorDesign,
-    gains: ModelGains,
-    /// The model was refused (or none yet): the baseline runs.
-    fallback: bool,
+    /// The prior's gains (`None`: no prior, the baseline runs until a model is accepted).
+    prior_gains: Option<ModelGains>,
     integrator_limit_i32f32: i64,
     u_limit_i32f32: i64,
     hold_bias: i32,
@@ -220,17 +220,20 @@ pub struct ScheduledState {
     eps_mean: u32,
     trusted_updates: u32,
     redesign_pending: bool,
-}
-
-impl Default for ScheduledState {
-    fn default() -> Self {
-        Self::new()
-    }
+    /// The gains in use: the prior's, then each adopted redesign's.
+    gains: ModelGains,
+    /// The model was refused (or none accepted yet): the baseline runs.
+    fallback: bool,
 }
 
 impl ScheduledState {
-    /// A fresh state: Seek, unprimed, nothing distrusted.
-    pub const fn new() -> Self {
+    /// A fresh state: Seek, unprimed, nothing distrusted, the gains `gains` (`None`: none yet, the
+    /// baseline runs until a redesign is accepted).
+    pub const fn new(gains: Option<ModelGains>) -> Self {
+        let (gains, fallback) = match gains {
+            Some(g) => (g, false),
+            None => (ModelGains::ZERO, true),
+        };
         Self {
             y1: 0,
             y2: 0,
@@ -248,12 +251,9 @@ impl ScheduledState {
             eps_mean: 0,
             trusted_updates: 0,
             redesign_pending: false,
+            gains,
+            fallback,
         }
-    }
-
-    /// Back to [`ScheduledState::new`].
-    pub fn reset(&mut self) {
-        *self = Self::new();
     }
 
     /// The region of the last step.
@@ -261,9 +261,15 @@ impl ScheduledState {
         self.region
     }
 
-    /// A redesign is due (set on Seek → Settle, cleared by [`ScheduledConfig::redesign`]).
+    /// A redesign is due (set on Seek → Settle, cleared when the servo takes the job).
     pub fn redesign_pending(&self) -> bool {
         self.redesign_pending
+    }
+
+    /// Asks for a redesign now (as the Seek → Settle transfer does): the servo takes the job
+    /// after the next step.
+    pub fn request_redesign(&mut self) {
+        self.redesign_pending = true;
     }
 
     /// The settle integrator, fraction of full scale.
@@ -275,34 +281,52 @@ impl ScheduledState {
     pub fn eps_mean(&self) -> SignalI16F16 {
         SignalI16F16::from_raw(sat_i32(i64::from(self.eps_mean), &mut false))
     }
-}
-
-/// The result of one step.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ScheduledOutput {
-    /// The drive, fraction of full scale, |u| ≤ u_max.
-    pub u: SignalI16F16,
-    /// The region this sample.
-    pub region: Region,
-    /// What happened.
-    pub flags: ScheduledFlags,
-}
-
-impl ScheduledConfig {
-    /// A fresh state.
-    pub const fn new_state(&self) -> ScheduledState {
-        ScheduledState::new()
-    }
 
     /// The gains in use.
     pub fn gains(&self) -> &ModelGains {
         &self.gains
     }
 
-    /// True while the model is refused (or none was accepted yet).
+    /// True while the model is refused (or none was accepted yet): the baseline drives.
     pub fn fallback(&self) -> bool {
         self.fallback
+    }
+}
+
+/// Largest θ a redesign job carries (na + nb of the velocity model: ≤ 2 + 2).
+pub const MAX_MODEL_PARAMS: usize = 4;
+
+/// A redesign job: what the supervisor decided when it was requested, and the identifier's θ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RedesignJob {
+    /// The estimator is distrusted: refuse (the baseline runs).
+    Untrusted,
+    /// No trusted update since the last design: keep the gains.
+    Skip,
+    /// Place gains from θ = [a₁ … a_na, b…] (the first `len` entries).
+    Place {
+        /// θ, zero-padded.
+        theta: [ParamI12F20; MAX_MODEL_PARAMS],
+        /// Entries of θ in use.
+        len: u8,
+    },
+}
+
+/// What a redesign produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RedesignResult {
+    /// The outcome.
+    pub outcome: Redesign,
+    /// The gains, when placed.
+    pub gains: Option<ModelGains>,
+}
+
+impl ScheduledConfig {
+    /// The prior's gains (`None`: no prior).
+    pub fn prior_gains(&self) -> Option<&ModelGains> {
+        self.prior_gains.as_ref()
     }
 
     /// The baseline PID (the fallback).
@@ -313,34 +337,6 @@ impl ScheduledConfig {
     /// The compensation map, if any.
     pub fn compensation(&self) -> Option<&InverseInputMap> {
         self.compensation.as_ref()
-    }
-
-    /// The slow-rate gain design (call outside the sample interrupt when
-    /// [`ScheduledState::redesign_pending`]): the identifier's θ = [a₁ … a_na, b…] → checked
-    /// velocity model → placed gains. Refusal latches the fallback until a model is accepted.
-    pub fn redesign(&mut self, state: &mut ScheduledState, theta: &[ParamI12F20]) -> Redesign {
-        state.redesign_pending = false;
-        if state.untrusted > 0 || state.eps_mean > self.eps_limit {
-            self.fallback = true;
-            return Redesign::Rejected(Rejection::Untrusted);
-        }
-        if state.trusted_updates == 0 {
-            return Redesign::Skipped;
-        }
-        state.trusted_updates = 0;
-        let designed = super::placement::reduce(theta, self.na, &self.supervisor)
-            .and_then(|m| super::placement::place(m, &self.placement).map(|g| (m, g)));
-        match designed {
-            Ok((model, gains)) => {
-                self.gains = gains;
-                self.fallback = false;
-                Redesign::Applied(model)
-            }
-            Err(r) => {
-                self.fallback = true;
-                Redesign::Rejected(r)
-            }
-        }
     }
 
     /// Supervisor bookkeeping of one identifier report; true when it distrusts the model now.
@@ -367,20 +363,20 @@ impl ScheduledConfig {
 
     /// One sample: reference and measurement (quanta) and the identifier's report in, the drive
     /// out. The only data path; never panics; |u| ≤ u_max for every input.
-    pub fn step(
+    pub fn step_law(
         &self,
         state: &mut ScheduledState,
         r: PositionI48F16,
         y: PositionI48F16,
         report: &ModelReport,
-    ) -> ScheduledOutput {
-        let mut flags = ScheduledFlags::NONE;
+    ) -> ControlOutput {
+        let mut flags = ControlFlags::NONE;
         let mut sat = false;
         if !state.primed {
             state.primed = true;
             (state.y1, state.y2, state.r1, state.r2) = (y.raw(), y.raw(), r.raw(), r.raw());
             state.dr1_previous = 0;
-            flags.insert(ScheduledFlags::FIRST_SAMPLE);
+            flags.insert(ControlFlags::FIRST_SAMPLE);
         }
         let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut sat);
         let dy2 = sat_i32(y.raw().saturating_sub(state.y2), &mut sat);
@@ -390,18 +386,18 @@ impl ScheduledConfig {
         (state.y2, state.y1, state.r2, state.r1) = (state.y1, y.raw(), state.r1, r.raw());
         state.dr1_previous = dr1;
         let distrusted = self.supervise(state, report);
-        flags.set_if(ScheduledFlags::MODEL_UNTRUSTED, distrusted);
+        flags.set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
         let previous = state.region;
         let region = self.selector.select(previous, e, dy2, dr1);
         state.region = region;
         let changed = region != previous;
-        flags.set_if(ScheduledFlags::REGION_CHANGED, changed);
+        flags.set_if(ControlFlags::REGION_CHANGED, changed);
         if changed && previous == Region::Seek && region == Region::Settle {
             state.redesign_pending = true;
-            flags.insert(ScheduledFlags::REDESIGN_REQUESTED);
+            flags.insert(ControlFlags::REDESIGN_REQUESTED);
         }
-        if self.fallback || distrusted {
-            flags.insert(ScheduledFlags::FALLBACK);
+        if state.fallback || distrusted {
+            flags.insert(ControlFlags::FALLBACK);
             let entering = !state.in_fallback;
             state.in_fallback = true;
             if entering {
@@ -415,14 +411,14 @@ impl ScheduledConfig {
             let out = self.baseline.step(&mut state.pid, r, y);
             state.pid.set_enabled(true);
             flags.set_if(
-                ScheduledFlags::OUTPUT_SATURATED,
-                out.flags.contains(ControlFlags::OUTPUT_SATURATED),
+                ControlFlags::OUTPUT_SATURATED,
+                out.flags.contains(PidFlags::OUTPUT_SATURATED),
             );
-            sat |= out.flags.contains(ControlFlags::ARITHMETIC_SATURATED);
-            flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
+            sat |= out.flags.contains(PidFlags::ARITHMETIC_SATURATED);
+            flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
             state.last_u = out.u.raw();
             state.last_v_i32f32 = i64::from(self.forward(out.u.raw())) << 16;
-            return ScheduledOutput {
+            return ControlOutput {
                 u: out.u,
                 region,
                 flags,
@@ -430,14 +426,14 @@ impl ScheduledConfig {
         }
         let returning = state.in_fallback;
         state.in_fallback = false;
-        let g = &self.gains;
+        let g = state.gains;
         let i_max = self.integrator_limit_i32f32;
         let (terms, integrating) = match region {
             Region::Hold => {
                 state.last_u = self.hold_bias;
                 state.last_v_i32f32 = i64::from(self.forward(self.hold_bias)) << 16;
-                flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
-                return ScheduledOutput {
+                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
+                return ControlOutput {
                     u: SignalI16F16::from_raw(self.hold_bias),
                     region,
                     flags,
@@ -463,22 +459,19 @@ impl ScheduledConfig {
             let wanted = state.last_v_i32f32.saturating_sub(terms);
             state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
-                ScheduledFlags::TRANSFER_LIMITED,
+                ControlFlags::TRANSFER_LIMITED,
                 state.integral_i32f32 != wanted,
             );
         } else if integrating {
-            let prev = state.integral_i32f32;
-            let wanted = prev.saturating_add(g.ki_settle.apply(self.settle_error(e)));
-            let candidate = clamp_sym_i64(wanted, i_max);
-            flags.set_if(ScheduledFlags::INTEGRATOR_LIMITED, candidate != wanted);
-            let v = terms.saturating_add(candidate);
-            let u_max = self.u_limit_i32f32;
-            let winding = (v > u_max && candidate > prev) || (v < -u_max && candidate < prev);
-            if winding {
-                flags.insert(ScheduledFlags::INTEGRATION_HELD);
-            } else {
-                state.integral_i32f32 = candidate;
-            }
+            let step = integrate(
+                &mut state.integral_i32f32,
+                g.ki_settle.apply(self.settle_error(e)),
+                terms,
+                i_max,
+                self.u_limit_i32f32,
+            );
+            flags.set_if(ControlFlags::INTEGRATOR_LIMITED, step.limited);
+            flags.set_if(ControlFlags::INTEGRATION_HELD, step.held);
         } else {
             // Seek: the transfer term fades with a time constant of 16 samples.
             state.integral_i32f32 -= state.integral_i32f32 >> 4;
@@ -491,11 +484,11 @@ impl ScheduledConfig {
         };
         let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
         let u = clamp_sym_i32(u_raw, u_max);
-        flags.set_if(ScheduledFlags::OUTPUT_SATURATED, u != u_raw);
-        flags.set_if(ScheduledFlags::ARITHMETIC_SATURATED, sat);
+        flags.set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
+        flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
         state.last_v_i32f32 = v;
         state.last_u = u;
-        ScheduledOutput {
+        ControlOutput {
             u: SignalI16F16::from_raw(u),
             region,
             flags,
@@ -515,6 +508,90 @@ impl ScheduledConfig {
     }
 }
 
+/// The scheduled law as a servo controller: the redesign places gains from the identified θ.
+impl Controller for ScheduledConfig {
+    type State = ScheduledState;
+    type Job = RedesignJob;
+    type Design = RedesignResult;
+
+    fn new_state(&self) -> ScheduledState {
+        ScheduledState::new(self.prior_gains)
+    }
+
+    fn step(&self, state: &mut ScheduledState, input: &ControlInput) -> ControlOutput {
+        self.step_law(state, input.r, input.y, &input.report)
+    }
+
+    /// Requested on Seek → Settle. The supervisor's verdict is taken now, from the state of this
+    /// sample; the trusted-update count restarts when a placement is asked for.
+    fn redesign_job(
+        &self,
+        state: &mut ScheduledState,
+        theta: &[ParamI12F20],
+    ) -> Option<RedesignJob> {
+        if !state.redesign_pending {
+            return None;
+        }
+        state.redesign_pending = false;
+        if state.untrusted > 0 || state.eps_mean > self.eps_limit {
+            return Some(RedesignJob::Untrusted);
+        }
+        if state.trusted_updates == 0 {
+            return Some(RedesignJob::Skip);
+        }
+        state.trusted_updates = 0;
+        let mut copy = [ParamI12F20::ZERO; MAX_MODEL_PARAMS];
+        for (c, t) in copy.iter_mut().zip(theta) {
+            *c = *t;
+        }
+        Some(RedesignJob::Place {
+            theta: copy,
+            len: theta.len().min(MAX_MODEL_PARAMS) as u8, // ≤ 4
+        })
+    }
+
+    /// θ → checked velocity model → placed gains (f32, outside the interrupt).
+    fn redesign(&self, job: &RedesignJob) -> RedesignResult {
+        let placed = match job {
+            RedesignJob::Untrusted => Err(Rejection::Untrusted),
+            RedesignJob::Skip => {
+                return RedesignResult {
+                    outcome: Redesign::Skipped,
+                    gains: None,
+                };
+            }
+            RedesignJob::Place { theta, len } => {
+                let theta = theta.get(..usize::from(*len)).unwrap_or(&[]);
+                super::placement::reduce(theta, self.na, &self.supervisor)
+                    .and_then(|m| super::placement::place(m, &self.placement).map(|g| (m, g)))
+            }
+        };
+        match placed {
+            Ok((model, gains)) => RedesignResult {
+                outcome: Redesign::Applied(model),
+                gains: Some(gains),
+            },
+            Err(r) => RedesignResult {
+                outcome: Redesign::Rejected(r),
+                gains: None,
+            },
+        }
+    }
+
+    /// Placed gains replace the gains in use and end the fallback; a refusal latches the fallback
+    /// until a model is accepted; a skip keeps everything.
+    fn adopt(&self, state: &mut ScheduledState, design: &RedesignResult) {
+        match (design.outcome, design.gains) {
+            (Redesign::Applied(_), Some(g)) => {
+                state.gains = g;
+                state.fallback = false;
+            }
+            (Redesign::Rejected(_), _) => state.fallback = true,
+            _ => {}
+        }
+    }
+}
+
 /// Words: the baseline PID, the region selector, placement, supervisor, gains in use, fallback,
 /// I_max, hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's).
 /// Checked as [`ScheduledDesign::build`] makes them: `0 ≤ I_max ≤ 2³¹·2¹⁶`, |hold bias| ≤ u_max,
@@ -525,8 +602,7 @@ impl Words for ScheduledConfig {
         self.selector.put(w)?;
         self.placement.put(w)?;
         self.supervisor.put(w)?;
-        self.gains.put(w)?;
-        self.fallback.put(w)?;
+        self.prior_gains.put(w)?;
         self.integrator_limit_i32f32.put(w)?;
         self.hold_bias.put(w)?;
         self.eps_limit.put(w)?;
@@ -540,8 +616,7 @@ impl Words for ScheduledConfig {
         let selector = RegionSelector::take(r);
         let placement = PlacementDesign::take(r);
         let supervisor = SupervisorDesign::take(r);
-        let gains = ModelGains::take(r);
-        let fallback = bool::take(r);
+        let prior_gains = <Option<ModelGains> as Words>::take(r);
         let integrator_limit_i32f32 = i64::take(r);
         r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
         let u_max = baseline.u_limit().raw();
@@ -556,8 +631,7 @@ impl Words for ScheduledConfig {
             selector,
             placement,
             supervisor,
-            gains,
-            fallback,
+            prior_gains,
             integrator_limit_i32f32,
             u_limit_i32f32: i64::from(u_max) << 16,
             hold_bias,
