@@ -129,6 +129,11 @@ pub enum ConfigError {
         /// Index of the offending word.
         at: usize,
     },
+    /// Configuration words of another format (the first word, [`crate::words::WORDS_VERSION`]
+    /// expected).
+    WordsVersion(u32),
+    /// Configuration words whose CRC-32 does not match: corrupted in storage or transfer.
+    WordsChecksum,
     /// Servo: the redesign hand-over latency L (samples from a request to its adoption) must be ≥ 1.
     HandoverLatency(u16),
 }
@@ -229,6 +234,12 @@ impl fmt::Display for ConfigError {
                 f,
                 "configuration words: word {at} is missing, invalid or fails its check"
             ),
+            Self::WordsVersion(v) => write!(
+                f,
+                "configuration words of format {v:#010x}: expected {:#010x}",
+                crate::words::WORDS_VERSION
+            ),
+            Self::WordsChecksum => write!(f, "configuration words: the CRC-32 does not match"),
             Self::HandoverLatency(l) => write!(
                 f,
                 "redesign hand-over latency = {l} samples: must be at least 1"

@@ -203,71 +203,120 @@ fn loop_words_are_up_to_date() {
     println!("{} configuration words", words.len());
 }
 
+/// `words` with its CRC-32 recomputed: a deliberate edit that the checksum does not catch, so
+/// that the configuration's own checks are what refuse it.
+fn resealed(mut words: Vec<u32>) -> Vec<u32> {
+    let n = words.len();
+    words[n - 1] = sledid::words::crc32::crc32_words(&words[..n - 1]);
+    words
+}
+
+/// The frame: every truncation, an extra word, another version and every single-bit flip of the
+/// committed words are refused (the CRC-32 catches all single-bit errors); decoding into a slot
+/// leaves `None` on an error. Trips on a decoder that skips the version, length or CRC check.
 #[test]
 fn altered_loop_words_are_refused() {
     let words = design_words();
-    // Every truncation fails at the first missing word; an extra word is refused.
+    assert_eq!(words.as_slice(), fw_config::LOOP_WORDS.as_slice());
     for n in 0..words.len() {
-        assert_eq!(
-            SledServo::from_words(&words[..n]),
-            Err(ConfigError::Words { at: n }),
-            "{n} words"
+        let refused = SledServo::from_words(&words[..n]);
+        assert!(
+            matches!(
+                refused,
+                Err(ConfigError::Words { at: 1 } | ConfigError::WordsVersion(_))
+            ),
+            "{n} words: {refused:?}"
         );
     }
-    // Decoding into a slot: the configuration, or `None` on an error.
+    let mut long = words.clone();
+    long.push(0);
+    assert_eq!(
+        SledServo::from_words(&long),
+        Err(ConfigError::Words { at: 1 })
+    );
+    let mut other = words.clone();
+    other[0] ^= 1;
+    assert_eq!(
+        SledServo::from_words(&resealed(other)),
+        Err(ConfigError::WordsVersion(sledid::words::WORDS_VERSION ^ 1))
+    );
+    let mut flips = 0;
+    for at in 0..words.len() {
+        for bit in 0..32 {
+            let mut bad = words.clone();
+            bad[at] ^= 1 << bit;
+            let refused = SledServo::from_words(&bad);
+            assert!(refused.is_err(), "bit {bit} of word {at} accepted");
+            flips += 1;
+        }
+    }
+    println!("{flips} single-bit flips, every one refused");
     let mut slot = None;
     assert_eq!(SledServo::from_words_into(&words, &mut slot), Ok(()));
     assert_eq!(slot, fw_config::design().build().ok());
     assert!(SledServo::from_words_into(&words[..words.len() - 1], &mut slot).is_err());
     assert_eq!(slot, None);
-    let mut long = words.clone();
-    long.push(0);
-    assert_eq!(
-        SledServo::from_words(&long),
-        Err(ConfigError::Words { at: words.len() })
-    );
-    // Values out of their field's range, in the controller's baseline PID (the controller's
-    // words come last; kp, ki·Ts, kd: 6 words, I_max and u_max: 4): derivative_on (+10) has two
-    // variants, the derivative length (+11) is 1…4, β (+12) and 1 − α (+13) are at most 1 in
-    // U1F31.
+}
+
+/// Past the CRC, the configuration's own checks: values out of their field's range, in the
+/// controller's baseline PID (the controller's words come last, before the CRC; kp, ki·Ts, kd: 6
+/// words, I_max and u_max: 4) — derivative_on (+10) has two variants (an encoding error at that
+/// word), the derivative length (+11) is 1…4, β (+12) and 1 − α (+13) are at most 1 in U1F31 —
+/// are refused with the error `PidDesign::build` names; random re-sealed single-word changes never
+/// panic, and a configuration they leave valid still steps. Trips on a `validate` that misses a
+/// check `build` makes.
+#[test]
+fn resealed_invalid_values_are_refused_by_the_build_checks() {
+    let words = design_words();
     let controller = fw_config::design().controller.build().expect("controller");
     let mut buf = [0u32; SERVO_WORDS_MAX];
     let mut w = WordWriter::new(&mut buf);
     controller.put(&mut w).expect("controller words");
     let n = w.len();
-    assert_eq!(&words[words.len() - n..], &buf[..n]);
-    let pid = words.len() - n;
-    for (at, value) in [
-        (10, 2),
-        (11, 0),
-        (11, 5),
-        (12, u32::MAX),
-        (13, (1 << 31) + 1),
+    let end = words.len() - 1; // the CRC
+    assert_eq!(&words[end - n..end], &buf[..n]);
+    let pid = end - n;
+    for (at, value, expected) in [
+        (10, 2, ConfigError::Words { at: pid + 10 }),
+        (11, 0, ConfigError::DerivativeSamples(0)),
+        (11, 5, ConfigError::DerivativeSamples(5)),
     ] {
-        let at = pid + at;
         let mut bad = words.clone();
-        bad[at] = value;
+        bad[pid + at] = value;
         assert_eq!(
-            SledServo::from_words(&bad),
-            Err(ConfigError::Words { at }),
-            "word {at} = {value}"
+            SledServo::from_words(&resealed(bad)),
+            Err(expected),
+            "word {} = {value}",
+            pid + at
         );
     }
-    // Random single-word changes: never a panic; when accepted, the loop still steps.
+    for (at, value) in [(12, u32::MAX), (13, (1 << 31) + 1)] {
+        let mut bad = words.clone();
+        bad[pid + at] = value;
+        let refused = SledServo::from_words(&resealed(bad));
+        assert!(
+            matches!(
+                refused,
+                Err(ConfigError::DerivativeLowPass(_) | ConfigError::ReferenceLowPass(_))
+            ),
+            "word {} = {value}: {refused:?}",
+            pid + at
+        );
+    }
     let mut x = 0x2545_f491_4f6c_dd1d_u64;
-    let mut refused = 0;
+    let (mut refused, mut stepped) = (0, 0);
     for trial in 0..20_000 {
         x ^= x << 13;
         x ^= x >> 7;
         x ^= x << 17;
         let mut bad = words.clone();
-        let at = (x as usize) % words.len();
+        let at = 2 + (x as usize) % (words.len() - 3); // the payload
         bad[at] = match trial % 3 {
             0 => (x >> 32) as u32,
             1 => bad[at] ^ (1 << ((x >> 40) % 32)),
             _ => bad[at].wrapping_add(1),
         };
-        match SledServo::from_words(&bad) {
+        match SledServo::from_words(&resealed(bad)) {
             Err(_) => refused += 1,
             Ok(config) if trial % 50 == 0 => {
                 let mut state = config.new_state();
@@ -277,14 +326,14 @@ fn altered_loop_words_are_refused() {
                     let s = cursor.next(&fixture).expect("record");
                     config.step_shadow(&mut state, s.r, s.y, s.u);
                 }
+                stepped += 1;
             }
-            // (Some changes decode to the very same configuration: low bits of an RLS setting
-            // that its quantisation drops.)
             Ok(_) => {}
         }
     }
-    println!("random single-word changes: {refused} of 20000 refused");
-    assert!(refused > 1_000, "{refused}");
+    println!(
+        "random re-sealed single-word changes: {refused} of 20000 refused, {stepped} accepted ones stepped"
+    );
 }
 
 /// The recording's codec on values at the edges of its layout, on refused samples, and on cut

@@ -33,6 +33,7 @@
 use super::ConfigError;
 use crate::ident::neuron::Neuron;
 use crate::num::fixed::{ParamI12F20, SignalI16F16, shr_round_i64};
+use crate::num::float_bits::from_fixed;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Grid intervals of the inverse table (2^5).
@@ -119,12 +120,35 @@ impl InverseInputMap {
             }
             last = h;
         }
-        Ok(Self {
+        let map = Self {
             neuron: *neuron,
             v0,
             shift,
             table,
-        })
+        };
+        map.validate()?;
+        Ok(map)
+    }
+
+    /// The invariants [`Self::apply`] relies on, checked by [`Self::from_neuron`] and by the
+    /// decoding of configuration words alike: a grid step `2^s` with `s ≤ 26`, the grid centred
+    /// (`v₀ = −2^(s + K − 1)`), and a non-decreasing table.
+    ///
+    /// # Errors
+    /// [`ConfigError::CompensationMap`] (with the grid's half-span, fraction of full scale).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        // `&&` keeps the shift in range before it is used.
+        let grid = self.shift <= 26
+            && i64::from(self.v0) == -(1i64 << (self.shift + MAP_INTERVALS_LOG2 - 1));
+        let monotone = self.table.windows(2).all(|p| p.first() <= p.get(1));
+        if grid && monotone {
+            Ok(())
+        } else {
+            Err(ConfigError::CompensationMap(from_fixed(
+                -i64::from(self.v0),
+                16,
+            )))
+        }
     }
 
     /// The friction-like map `w = −u_c`, `a = softness/u_c`, `c = 0` (softness < 1 keeps h
@@ -205,10 +229,7 @@ impl Words for InverseInputMap {
         let [nw, na, nc] = <[ParamI12F20; 3]>::take(r);
         let v0 = i32::take(r);
         let shift = u32::take(r);
-        // `&&` keeps the shift in range before it is used.
-        r.check(shift <= 26 && i64::from(v0) == -(1i64 << (shift + MAP_INTERVALS_LOG2 - 1)));
         let table = <[i32; MAP_ENTRIES]>::take(r);
-        r.check(table.windows(2).all(|p| p.first() <= p.get(1)));
         Self {
             neuron: Neuron::new(nw, na, nc),
             v0,

@@ -24,11 +24,11 @@
 //! (`host-tests/src/twin/baseline.rs`): `D(k) = β·D(k−1) + (1 − β)·Kd·(e(k) − e(k−1))/Ts`, D = 0 on
 //! the first sample. The EMPS controller `vir = kp·kv·(qg − qm) − kv·v̂` is Kp = kp·kv, Kd = kv,
 //! Ki = 0, derivative on the measurement with v̂ = (qm(k) − qm(k−2))/(2·Ts): n = 2, no low-pass
-//! ([`pid::PidDesign::position_velocity_cascade`]).
+//! ([`PidDesign::position_velocity_cascade`]).
 //!
-//! **First sample and bumpless enable.** On the first sample after [`pid::PidState::new`] the
+//! **First sample and bumpless enable.** On the first sample after [`PidState::new`] the
 //! derivative history is filled with the current w (D = 0, no derivative kick) and the prefilter
-//! starts at the measured position. While disabled ([`pid::PidState::set_enabled`]) the output is
+//! starts at the measured position. While disabled ([`PidState::set_enabled`]) the output is
 //! the manual value, the derivative history keeps running, the prefilter follows y, and the
 //! integrator tracks `u_manual − P − D` (clamped to ±I_max): re-enabling continues from the manual
 //! output without a step. Without an integrator (I_max = 0) the transfer cannot be bumpless and
@@ -54,7 +54,7 @@
 //! saturate (unflagged) only beyond ±2³¹ u_fs, where the output is clamped anyway.
 //!
 //! # Scaling and overflow
-//! Every product of two `i32` goes through [`mul_i32_wide`] (four `MULS` on Armv6-M); narrowings
+//! Every product of two `i32` goes through [`mul_i32_wide`](crate::num::wide::mul_i32_wide) (four `MULS` on Armv6-M); narrowings
 //! round half up and saturate with [`PidFlags::ARITHMETIC_SATURATED`]; position differences are
 //! `saturating_sub`, so any `i64` input, including `i64::MIN`, is accepted. The prefilter's rounding
 //! stops it within 2⁻¹⁷/(1 − α) quanta of a constant reference (7.6·10⁻⁴ quanta at α = 0.99).
@@ -80,6 +80,7 @@ use crate::error::ConfigError;
 use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::{SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::float_bits::from_fixed;
 use crate::num::gain::{
     Gain, LIMIT_I32F32_MAX, ONE_U1F31, clamp_sym_i64, i32f32_from_f64, mul_i64_u1f31, pole_u1f31,
 };
@@ -311,7 +312,7 @@ impl PidDesign {
             .ok_or(E::DerivativeLowPass(self.derivative_lowpass_hz))?;
         let alpha = pole_u1f31(self.reference_lowpass_hz, ts)
             .ok_or(E::ReferenceLowPass(self.reference_lowpass_hz))?;
-        Ok(PidConfig {
+        let config = PidConfig {
             kp,
             ki_ts,
             kd,
@@ -322,7 +323,9 @@ impl PidDesign {
             beta_u1f31: beta,
             prefilter: alpha != 0,
             one_minus_alpha_u1f31: ONE_U1F31 - alpha,
-        })
+        };
+        config.validate()?;
+        Ok(config)
     }
 }
 
@@ -418,6 +421,46 @@ impl PidState {
 }
 
 impl PidConfig {
+    /// The invariants the step relies on, checked by [`PidDesign::build`] and by the decoding of
+    /// configuration words alike: valid gains, `0 ≤ I_max ≤ i32::MAX·2¹⁶`, `0 < u_max ≤
+    /// i32::MAX·2¹⁶` on the I16F16 grid, `1 ≤ n ≤ 4`, β and 1 − α in U1F31 [0, 1], and the
+    /// prefilter on exactly when α ≠ 0.
+    ///
+    /// # Errors
+    /// The [`ConfigError`] naming the parameter.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        use ConfigError as E;
+        let volts = |raw: i64| from_fixed(raw, 32); // a fraction of full scale
+        for (g, e) in [
+            (self.kp, E::Kp(f64::NAN)),
+            (self.ki_ts, E::Ki(f64::NAN)),
+            (self.kd, E::Kd(f64::NAN)),
+        ] {
+            if !g.is_valid() {
+                return Err(e);
+            }
+        }
+        if !(0..=LIMIT_I32F32_MAX).contains(&self.integrator_limit_i32f32) {
+            return Err(E::IntegratorLimit(volts(self.integrator_limit_i32f32)));
+        }
+        let u = self.u_limit_i32f32;
+        if !(u > 0 && u <= LIMIT_I32F32_MAX && u & 0xffff == 0) {
+            return Err(E::OutputLimit(volts(u)));
+        }
+        if !(1..=MAX_DERIVATIVE_SAMPLES).contains(&self.derivative_samples) {
+            return Err(E::DerivativeSamples(self.derivative_samples));
+        }
+        if self.beta_u1f31 > ONE_U1F31 {
+            return Err(E::DerivativeLowPass(f64::NAN));
+        }
+        if self.one_minus_alpha_u1f31 > ONE_U1F31
+            || self.prefilter != (self.one_minus_alpha_u1f31 != ONE_U1F31)
+        {
+            return Err(E::ReferenceLowPass(f64::NAN));
+        }
+        Ok(())
+    }
+
     /// A fresh state (the same as [`PidState::new`]).
     pub const fn new_state(&self) -> PidState {
         PidState::new()
@@ -588,20 +631,11 @@ impl Words for PidConfig {
         let ki_ts = Gain::take(r);
         let kd = Gain::take(r);
         let integrator_limit_i32f32 = i64::take(r);
-        r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
         let u_limit_i32f32 = i64::take(r);
-        r.check(
-            u_limit_i32f32 > 0
-                && u_limit_i32f32 <= LIMIT_I32F32_MAX
-                && u_limit_i32f32 & 0xffff == 0,
-        );
         let derivative_on = DerivativeOn::take(r);
         let derivative_samples = u8::take(r);
-        r.check((1..=MAX_DERIVATIVE_SAMPLES).contains(&derivative_samples));
         let beta_u1f31 = u32::take(r);
-        r.check(beta_u1f31 <= ONE_U1F31);
         let one_minus_alpha_u1f31 = u32::take(r);
-        r.check(one_minus_alpha_u1f31 <= ONE_U1F31);
         Self {
             kp,
             ki_ts,

@@ -187,6 +187,27 @@ pub struct ModelGains {
 }
 
 impl ModelGains {
+    /// Every gain a valid [`Gain`].
+    ///
+    /// # Errors
+    /// [`ConfigError::InitialModel`] (the gains are a model's) otherwise.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let all = [
+            self.kp_seek,
+            self.kd2_seek,
+            self.kv_ff,
+            self.ka_ff,
+            self.kp_settle,
+            self.kd2_settle,
+            self.ki_settle,
+        ];
+        if all.iter().all(|g| g.is_valid()) {
+            Ok(())
+        } else {
+            Err(ConfigError::InitialModel(f64::NAN))
+        }
+    }
+
     /// Every gain zero (no model: the baseline runs).
     pub const ZERO: Self = Self {
         kp_seek: Gain::ZERO,
@@ -274,7 +295,7 @@ pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelG
     })
 }
 
-/// Words: p_s, p_z (`f64` bits), feedforward. Checked by [`PlacementDesign::validate`].
+/// Words: p_s, p_z (`f64` bits), feedforward (validity: [`PlacementDesign::validate`]).
 impl Words for PlacementDesign {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         self.seek_pole.put(w)?;
@@ -282,18 +303,16 @@ impl Words for PlacementDesign {
         self.feedforward.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
-        let p = Self {
+        Self {
             seek_pole: f64::take(r),
             settle_pole: f64::take(r),
             feedforward: bool::take(r),
-        };
-        r.check(p.validate().is_ok());
-        p
+        }
     }
 }
 
-/// Words: pole min/max, gain min/max, ε limit (`f64` bits), hold samples. Checked by
-/// [`SupervisorDesign::validate`].
+/// Words: pole min/max, gain min/max, ε limit (`f64` bits), hold samples (validity:
+/// [`SupervisorDesign::validate`]).
 impl Words for SupervisorDesign {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         [
@@ -308,16 +327,14 @@ impl Words for SupervisorDesign {
     }
     fn take(r: &mut WordReader<'_>) -> Self {
         let [pole_min, pole_max, gain_min, gain_max, eps_limit_quanta] = <[f64; 5]>::take(r);
-        let s = Self {
+        Self {
             pole_min,
             pole_max,
             gain_min,
             gain_max,
             eps_limit_quanta,
             untrusted_hold_samples: u16::take(r),
-        };
-        r.check(s.validate().is_ok());
-        s
+        }
     }
 }
 

@@ -107,14 +107,58 @@ impl<const N: usize> LinearDesign<N> {
             let f1 = self.theta0.first().copied().unwrap_or(0.0);
             return Err(ConfigError::InitialModel(f1));
         }
-        Ok(LinearConfig {
+        let config = LinearConfig {
             structure: self.structure,
             na: self.na,
             nk: self.nk,
             theta0,
             rls: self.rls.build()?,
             radius,
-        })
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+impl<const N: usize> LinearConfig<N> {
+    /// The invariants the estimator relies on, checked by [`LinearDesign::build`] and by the
+    /// decoding of configuration words alike: `1 ≤ na < N`, `nk ≤ MAX_DELAY`, a pole radius for
+    /// OE (and only orders ≤ 2 with one), and θ₀'s denominator inside it.
+    ///
+    /// # Errors
+    /// [`ConfigError::ModelOrder`], [`ConfigError::Delay`], [`ConfigError::StabilityMargin`] or
+    /// [`ConfigError::InitialModel`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let na = self.na;
+        if !(1..N).contains(&na) {
+            return Err(ConfigError::ModelOrder {
+                na,
+                nb: N.saturating_sub(na),
+                n: N,
+            });
+        }
+        if self.nk > MAX_DELAY {
+            return Err(ConfigError::Delay(self.nk));
+        }
+        match (self.radius, self.theta0.get(..na)) {
+            (Some(radius), Some(den)) => {
+                radius.validate()?;
+                if na > 2 {
+                    return Err(ConfigError::ModelOrder {
+                        na,
+                        nb: N - na,
+                        n: N,
+                    });
+                }
+                if !radius.contains(den) {
+                    let f1 = self.theta0.first().map_or(f64::NAN, |p| p.to_f64());
+                    return Err(ConfigError::InitialModel(f1));
+                }
+                Ok(())
+            }
+            (None, _) if self.structure == Structure::Arx => Ok(()),
+            _ => Err(ConfigError::StabilityMargin(f64::NAN)),
+        }
     }
 }
 
@@ -342,26 +386,21 @@ impl<const N: usize> LinearConfig<N> {
     pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
         let structure = Structure::take(r);
         let na = usize::take(r);
-        r.check(na >= 1 && na < N);
         let nk = usize::take(r);
-        r.check(nk <= MAX_DELAY);
         let theta0 = <[ParamI12F20; N]>::take(r);
         let radius = <Option<PoleRadius> as Words>::take(r);
-        r.check(match (radius, theta0.get(..na)) {
-            (Some(radius), Some(den)) => na <= 2 && radius.contains(den),
-            (None, _) => structure == Structure::Arx,
-            (Some(_), None) => false,
-        });
         let rls = RlsDesign::take(r);
         r.status()?;
-        Ok(Self {
+        let config = Self {
             structure,
             na,
             nk,
             theta0,
             rls: rls.build()?,
             radius,
-        })
+        };
+        config.validate()?;
+        Ok(config)
     }
 }
 

@@ -94,6 +94,7 @@ use crate::ident::status::Status;
 use crate::num::dyadic::Dyadic;
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Fraction bits of the U factor (I8F24).
 pub const U_FRAC_BITS: u32 = 24;
@@ -831,6 +832,65 @@ impl RlsConfig {
                 st.scale(c.mul_trunc(tr.recip()));
                 Status::TRACE_NORMALISED
             }
+        }
+    }
+}
+
+/// Words: the variant's index (None 0, TraceLimit 1, DiagonalLimit 2, ConstantTrace 3), then its limit.
+impl Words for AntiWindup {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        match *self {
+            Self::None => w.word(0),
+            Self::TraceLimit { max } => {
+                w.word(1)?;
+                max.put(w)
+            }
+            Self::DiagonalLimit { max } => {
+                w.word(2)?;
+                max.put(w)
+            }
+            Self::ConstantTrace { trace } => {
+                w.word(3)?;
+                trace.put(w)
+            }
+        }
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        match r.word() {
+            0 => Self::None,
+            1 => Self::TraceLimit { max: f64::take(r) },
+            2 => Self::DiagonalLimit { max: f64::take(r) },
+            3 => Self::ConstantTrace {
+                trace: f64::take(r),
+            },
+            _ => {
+                r.fail();
+                Self::None
+            }
+        }
+    }
+}
+
+/// The design itself (validated when it is built: see the module doc).
+impl Words for RlsDesign {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.lambda.put(w)?;
+        self.p0.put(w)?;
+        self.dead_zone.put(w)?;
+        self.excitation_threshold.put(w)?;
+        self.anti_windup.put(w)?;
+        self.outlier_threshold.put(w)?;
+        self.outlier_limit.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self {
+            lambda: f64::take(r),
+            p0: f64::take(r),
+            dead_zone: f64::take(r),
+            excitation_threshold: f64::take(r),
+            anti_windup: AntiWindup::take(r),
+            outlier_threshold: f64::take(r),
+            outlier_limit: u16::take(r),
         }
     }
 }

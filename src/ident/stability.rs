@@ -14,6 +14,7 @@ use crate::error::ConfigError;
 use crate::ident::rls::RlsState;
 use crate::ident::status::Status;
 use crate::num::fixed::ParamI12F20;
+use crate::num::float_bits::from_fixed;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Radius ρ of the allowed pole region, I12F20.
@@ -35,6 +36,22 @@ impl PoleRadius {
         ParamI12F20::from_f64(rho)
             .map(Self)
             .map_err(|_| ConfigError::StabilityMargin(margin))
+    }
+
+    /// ρ ∈ [½, 1] (a margin in [0, ½), as [`Self::from_margin`] makes it), checked by it and by the
+    /// decoding of configuration words alike.
+    ///
+    /// # Errors
+    /// [`ConfigError::StabilityMargin`] (the margin 1 − ρ) otherwise.
+    pub fn validate(self) -> Result<(), ConfigError> {
+        if (1 << 19..=1 << 20).contains(&self.0.raw()) {
+            Ok(())
+        } else {
+            Err(ConfigError::StabilityMargin(from_fixed(
+                (1 << 20) - i64::from(self.0.raw()),
+                20,
+            )))
+        }
     }
 
     /// True when the denominator with coefficients `f` (f₁, then f₂ if present) has all its roots in
@@ -85,16 +102,13 @@ pub fn project_denominator<const N: usize>(
     Status::PROJECTED
 }
 
-/// Words: ρ raw I12F20. Checked: ρ ∈ [½, 1] (a margin in [0, ½), as
-/// [`PoleRadius::from_margin`] makes it).
+/// Words: ρ raw I12F20 (validity: [`PoleRadius::validate`]).
 impl Words for PoleRadius {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         self.0.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
-        let rho = ParamI12F20::take(r);
-        r.check((1 << 19..=1 << 20).contains(&rho.raw()));
-        Self(rho)
+        Self(ParamI12F20::take(r))
     }
 }
 

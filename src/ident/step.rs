@@ -22,6 +22,7 @@ use crate::ident::linear::{LinearConfig, LinearDesign, LinearState};
 use crate::ident::status::Status;
 use crate::num::boundary::{PositionI48F16, Sample};
 use crate::num::fixed::{ParamI12F20, SignalI16F16};
+use crate::num::float_bits::from_fixed;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Stuck-sensor detection: y unchanged for `samples` consecutive samples while |u| ≥ `min_drive`.
@@ -73,13 +74,13 @@ impl<const N: usize, D: EstimatorDesign<N>> IdentifierDesign<N, D> {
             Some(d) => {
                 let drive = SignalI16F16::from_f64(d.min_drive)
                     .map_err(|_| ConfigError::StuckSensor(d.min_drive))?;
-                if d.samples < 2 || drive.raw() <= 0 {
-                    return Err(ConfigError::StuckSensor(d.min_drive));
-                }
-                Some(StuckSensor {
+                let s = StuckSensor {
                     samples: d.samples,
                     min_drive_i16f16: drive.raw().unsigned_abs(),
-                })
+                };
+                s.validate()
+                    .map_err(|_| ConfigError::StuckSensor(d.min_drive))?;
+                Some(s)
             }
         };
         Ok(IdentifierConfig {
@@ -289,21 +290,29 @@ pub fn reject<const N: usize, M: Estimator<N>>(
     }
 }
 
-/// Words: samples, least |u| (raw I16F16). Checked as [`IdentifierDesign::build`] makes them:
-/// at least 2 samples, a drive in (0, 2³¹).
+impl StuckSensor {
+    /// At least 2 samples and a drive in (0, 2³¹) raw, checked by [`IdentifierDesign::build`] and
+    /// by the decoding of configuration words alike.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let d = self.min_drive_i16f16;
+        if self.samples >= 2 && d > 0 && d <= i32::MAX as u32 {
+            Ok(())
+        } else {
+            Err(ConfigError::StuckSensor(from_fixed(i64::from(d), 16)))
+        }
+    }
+}
+
+/// Words: samples, least |u| (raw I16F16).
 impl Words for StuckSensor {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         self.samples.put(w)?;
         self.min_drive_i16f16.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
-        let samples = u32::take(r);
-        r.check(samples >= 2);
-        let min_drive_i16f16 = u32::take(r);
-        r.check(min_drive_i16f16 > 0 && min_drive_i16f16 <= i32::MAX as u32);
         Self {
-            samples,
-            min_drive_i16f16,
+            samples: u32::take(r),
+            min_drive_i16f16: u32::take(r),
         }
     }
 }
@@ -328,11 +337,24 @@ impl<const N: usize> IdentifierConfig<N, LinearConfig<N>> {
     /// # Errors
     /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
     pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
-        Ok(Self {
+        let config = Self {
             conditioning: Conditioning::take(r),
             stuck: <Option<StuckSensor> as Words>::take(r),
             model: LinearConfig::take_words(r)?,
-        })
+        };
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// The stuck-sensor check's and the model's invariants (as their `build`s check them).
+    ///
+    /// # Errors
+    /// The part's [`ConfigError`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if let Some(s) = &self.stuck {
+            s.validate()?;
+        }
+        self.model.validate()
     }
 }
 

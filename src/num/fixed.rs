@@ -26,8 +26,9 @@
 //! Conversions from `f64` reject NaN, ±∞ and values outside the format with a [`BoundaryError`].
 //! Inside the path every narrowing is saturating and reported (`Status::SATURATED`).
 
-use crate::error::BoundaryError;
+use crate::error::{BoundaryError, ConfigError};
 use crate::num::float_bits::decode_f64;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// A signal sample in I16F16: `value = raw / 2^16`, range [−32768, 32768), step 2⁻¹⁶ ≈ 1.5·10⁻⁵.
 ///
@@ -229,6 +230,26 @@ pub const fn sat_i32(x: i64, saturated: &mut bool) -> i32 {
         i32::MIN
     } else {
         x as i32
+    }
+}
+
+/// Words: the raw value.
+impl Words for ParamI12F20 {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.raw().put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self::from_raw(i32::take(r))
+    }
+}
+
+/// Words: the raw value.
+impl Words for SignalI16F16 {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.raw().put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self::from_raw(i32::take(r))
     }
 }
 

@@ -19,6 +19,19 @@ pub const fn decode_f64(x: f64) -> (bool, u64, i32) {
     }
 }
 
+/// `raw · 2^−frac_bits` as an `f64` (for error values and diagnostics), without a floating-point
+/// multiply or divide: the integer is converted, then its exponent field lowered. Exact for
+/// |raw| < 2⁵³ and `frac_bits ≤ 64`; rounded to 53 bits beyond.
+pub fn from_fixed(raw: i64, frac_bits: u32) -> f64 {
+    let x = raw as f64;
+    if raw == 0 || frac_bits > 64 {
+        return x;
+    }
+    let bits = x.to_bits();
+    // |raw| ≥ 1 has a biased exponent ≥ 1023 > 64: lowering it stays a normal number.
+    f64::from_bits(bits - (u64::from(frac_bits) << 52))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -34,6 +47,10 @@ mod tests {
             assert_eq!(v, x.abs(), "{x:e}");
         }
         assert_eq!(decode_f64(0.0).1, 0);
+        assert_eq!(from_fixed(3 << 15, 16), 1.5);
+        assert_eq!(from_fixed(-(1 << 20), 20), -1.0);
+        assert_eq!(from_fixed(0, 16), 0.0);
+        assert_eq!(from_fixed(i64::MIN, 64), -0.5);
         assert_eq!(decode_f64(-0.0), (true, 0, -1074));
     }
 }

@@ -207,21 +207,28 @@ impl ServoDesign {
     /// ([`SERVO_WORDS_MAX`] always suffices).
     pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
         let built = self.build()?;
-        let mut w = WordWriter::new(out);
-        self.velocity.put_words(&mut w)?;
-        self.wiener.is_some().put(&mut w)?;
+        let len = out.len();
+        let payload = out.get_mut(2..).ok_or(ConfigError::Words { at: len })?;
+        let mut w = WordWriter::new(payload);
+        let at = |e: ConfigError| match e {
+            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
+            e => e,
+        };
+        self.velocity.put_words(&mut w).map_err(at)?;
+        self.wiener.is_some().put(&mut w).map_err(at)?;
         if let Some(wiener) = &self.wiener {
-            wiener.put_words(&mut w)?;
+            wiener.put_words(&mut w).map_err(at)?;
         }
-        built.latency.put(&mut w)?;
-        built.controller.put(&mut w)?;
-        Ok(w.len())
+        built.latency.put(&mut w).map_err(at)?;
+        built.controller.put(&mut w).map_err(at)?;
+        let payload_len = w.len();
+        crate::words::seal(out, payload_len)
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 181 (25 for the velocity
-/// identifier with a stuck-sensor check and a pole radius, 22 for the Wiener model, 1 for L, 133
-/// for the controller with both input maps).
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 185 (3 of framing, 25 for
+/// the velocity identifier with a stuck-sensor check and a pole radius, 23 for the Wiener model, 1
+/// for L, 133 for the controller with both input maps).
 pub const SERVO_WORDS_MAX: usize = 192;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
@@ -493,14 +500,14 @@ impl SledServo {
     /// As [`Self::from_words`].
     pub fn from_words_into(words: &[u32], slot: &mut Option<Self>) -> Result<(), ConfigError> {
         *slot = None;
-        let mut r = WordReader::new(words);
+        let payload = crate::words::open(words)?;
+        let mut r = WordReader::new(payload);
         let identifier = IdentifierConfig::take_words(&mut r)?;
         let wiener = match bool::take(&mut r) {
             true => Some(NonlinearConfig::take_words(&mut r)?),
             false => None,
         };
         let latency = u32::take(&mut r);
-        r.check((1..=u32::from(u16::MAX)).contains(&latency));
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
@@ -509,10 +516,32 @@ impl SledServo {
             decimator: DecimatorConfig::HALF_BAND_23,
             latency,
         });
-        let done = r.finish();
+        let done = r
+            .finish()
+            .map_err(|e| match e {
+                // Indices into the frame, not the payload.
+                ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
+                e => e,
+            })
+            .and_then(|()| slot.as_ref().map_or(Ok(()), Self::validate));
         if done.is_err() {
             *slot = None;
         }
         done
+    }
+
+    /// Every part's invariants (the same `validate` their `build`s run) and `1 ≤ L ≤ 65,535`.
+    ///
+    /// # Errors
+    /// The part's [`ConfigError`], or [`ConfigError::HandoverLatency`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(1..=u32::from(u16::MAX)).contains(&self.latency) {
+            return Err(ConfigError::HandoverLatency(0));
+        }
+        self.identifier.validate()?;
+        if let Some(w) = &self.wiener {
+            w.validate()?;
+        }
+        self.controller.validate()
     }
 }

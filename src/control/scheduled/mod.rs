@@ -30,7 +30,7 @@
 //! these the baseline PID runs and [`ControlFlags::FALLBACK`] is set.
 //!
 //! # Formats
-//! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`](super::Gain),
+//! Positions I48F16 (`i64`), differences and e I16F16 (saturating, flagged), gains [`Gain`](crate::num::gain::Gain),
 //! terms and I in I32F32 (`i64`, each term < 2⁶², sums saturating), u I16F16. The running mean of
 //! |ε| is a `u32` in I16F16 (`m ← m − m/32 + |ε|/32`, never above max |ε|).
 //!
@@ -61,6 +61,7 @@ use super::{ConfigError, ControlFlags, ControlInput, ControlOutput, Controller, 
 use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
+use crate::num::float_bits::from_fixed;
 use crate::num::gain::{LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
 use crate::words::{WordReader, WordWriter, Words};
 use regions::{Region, RegionDesign, RegionSelector};
@@ -175,6 +176,7 @@ impl ScheduledDesign {
                     .map_err(|_| ConfigError::InitialModel(b))?,
             );
         }
+        config.validate()?;
         Ok(config)
     }
 }
@@ -324,6 +326,53 @@ pub struct RedesignResult {
 }
 
 impl ScheduledConfig {
+    /// The invariants the law relies on, checked by [`ScheduledDesign::build`] and by the
+    /// decoding of configuration words alike: every part's own (`validate`), `0 ≤ I_max ≤
+    /// i32::MAX·2¹⁶`, u_max the baseline's, |hold bias| ≤ u_max, ε limit < 2³¹, na ∈ {1, 2}.
+    ///
+    /// # Errors
+    /// The [`ConfigError`] naming the parameter.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.baseline.validate()?;
+        self.selector.validate()?;
+        self.placement.validate()?;
+        self.supervisor.validate()?;
+        if let Some(g) = &self.prior_gains {
+            g.validate()?;
+        }
+        for map in [&self.compensation, &self.output_map].into_iter().flatten() {
+            map.validate()?;
+        }
+        let i_max = self.integrator_limit_i32f32;
+        if !(0..=LIMIT_I32F32_MAX).contains(&i_max) {
+            return Err(ConfigError::IntegratorLimit(from_fixed(i_max, 32)));
+        }
+        let u_max = self.baseline.u_limit().raw();
+        if self.u_limit_i32f32 != i64::from(u_max) << 16 {
+            return Err(ConfigError::OutputLimit(from_fixed(i64::from(u_max), 16)));
+        }
+        if self.hold_bias.unsigned_abs() > u_max.unsigned_abs() {
+            return Err(ConfigError::OutputLimit(from_fixed(
+                i64::from(self.hold_bias),
+                16,
+            )));
+        }
+        if self.eps_limit > i32::MAX as u32 {
+            return Err(ConfigError::SupervisorLimit(from_fixed(
+                i64::from(self.eps_limit),
+                16,
+            )));
+        }
+        if !(1..=2).contains(&self.na) {
+            return Err(ConfigError::ModelOrder {
+                na: self.na,
+                nb: 1,
+                n: self.na + 1,
+            });
+        }
+        Ok(())
+    }
+
     /// The prior's gains (`None`: no prior).
     pub fn prior_gains(&self) -> Option<&ModelGains> {
         self.prior_gains.as_ref()
@@ -592,10 +641,9 @@ impl Controller for ScheduledConfig {
     }
 }
 
-/// Words: the baseline PID, the region selector, placement, supervisor, gains in use, fallback,
-/// I_max, hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's).
-/// Checked as [`ScheduledDesign::build`] makes them: `0 ≤ I_max ≤ 2³¹·2¹⁶`, |hold bias| ≤ u_max,
-/// `ε limit < 2³¹`, na ∈ {1, 2}, and every part's own checks.
+/// Words: the baseline PID, the region selector, placement, supervisor, the prior's gains, I_max,
+/// hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's; validity:
+/// [`ScheduledConfig::validate`]).
 impl Words for ScheduledConfig {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         self.baseline.put(w)?;
@@ -618,14 +666,10 @@ impl Words for ScheduledConfig {
         let supervisor = SupervisorDesign::take(r);
         let prior_gains = <Option<ModelGains> as Words>::take(r);
         let integrator_limit_i32f32 = i64::take(r);
-        r.check((0..=LIMIT_I32F32_MAX).contains(&integrator_limit_i32f32));
         let u_max = baseline.u_limit().raw();
         let hold_bias = i32::take(r);
-        r.check(hold_bias.unsigned_abs() <= u_max.unsigned_abs());
         let eps_limit = u32::take(r);
-        r.check(eps_limit <= i32::MAX as u32);
         let na = usize::take(r);
-        r.check((1..=2).contains(&na));
         Self {
             baseline,
             selector,

@@ -25,6 +25,7 @@
 
 use crate::control::ConfigError;
 use crate::num::fixed::SignalI16F16;
+use crate::num::float_bits::from_fixed;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// The part of a step response the controller is in.
@@ -121,16 +122,42 @@ impl RegionDesign {
             hold_speed: q(self.hold_speed_quanta)?,
             moving: q(self.moving_quanta)?,
         };
-        if s.settle_leave < s.settle_enter {
-            return Err(ConfigError::RegionThreshold(self.settle_leave_quanta));
-        }
-        if s.hold_leave < s.hold_enter {
-            return Err(ConfigError::RegionThreshold(self.hold_leave_quanta));
-        }
-        if s.settle_enter <= s.hold_leave {
-            return Err(ConfigError::RegionThreshold(self.settle_enter_quanta));
-        }
+        s.validate()?;
         Ok(s)
+    }
+}
+
+impl RegionSelector {
+    /// The invariants [`Self::select`]'s hysteresis relies on, checked by [`RegionDesign::build`]
+    /// and by the decoding of configuration words alike: every threshold in `[0, 2³¹)` and
+    /// `H_enter ≤ H_leave < S_enter ≤ S_leave`.
+    ///
+    /// # Errors
+    /// [`ConfigError::RegionThreshold`] with the first threshold out of range or out of order
+    /// (quanta).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let quanta = |raw: u32| from_fixed(i64::from(raw), 16);
+        let all = [
+            self.settle_enter,
+            self.settle_leave,
+            self.hold_enter,
+            self.hold_leave,
+            self.hold_speed,
+            self.moving,
+        ];
+        if let Some(&bad) = all.iter().find(|&&t| t > i32::MAX as u32) {
+            return Err(ConfigError::RegionThreshold(quanta(bad)));
+        }
+        if self.settle_leave < self.settle_enter {
+            return Err(ConfigError::RegionThreshold(quanta(self.settle_leave)));
+        }
+        if self.hold_leave < self.hold_enter {
+            return Err(ConfigError::RegionThreshold(quanta(self.hold_leave)));
+        }
+        if self.settle_enter <= self.hold_leave {
+            return Err(ConfigError::RegionThreshold(quanta(self.settle_enter)));
+        }
+        Ok(())
     }
 }
 
@@ -156,8 +183,8 @@ impl RegionSelector {
     }
 }
 
-/// Words: settle enter/leave, hold enter/leave, hold speed, moving (I16F16 raw, quanta). Checked:
-/// each in `[0, 2³¹)` and ordered as [`RegionDesign::build`] requires.
+/// Words: settle enter/leave, hold enter/leave, hold speed, moving (I16F16 raw, quanta; validity:
+/// [`RegionSelector::validate`]).
 impl Words for RegionSelector {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         [
@@ -171,11 +198,6 @@ impl Words for RegionSelector {
         .put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
-        let mut v = [0u32; 6];
-        for x in &mut v {
-            *x = u32::take(r);
-            r.check(*x <= i32::MAX as u32);
-        }
         let [
             settle_enter,
             settle_leave,
@@ -183,9 +205,7 @@ impl Words for RegionSelector {
             hold_leave,
             hold_speed,
             moving,
-        ] = v;
-        r.check(settle_leave >= settle_enter && hold_leave >= hold_enter);
-        r.check(settle_enter > hold_leave);
+        ] = <[u32; 6]>::take(r);
         Self {
             settle_enter,
             settle_leave,

@@ -1,7 +1,7 @@
-//! The scheduled controller's supervision types: the per-sample flags
-//! ([`ControlFlags`], with [`ControlFlags::FALLBACK`] saying when the baseline drives), the
-//! identifier's report the supervisor reads ([`ModelReport`], [`DISTRUST`]) and the outcome of a
-//! slow-rate redesign ([`Redesign`]). The logic is in [`super`].
+//! The scheduled controller's supervision types: the estimator flags that distrust the model
+//! ([`DISTRUST`]), the identifier's report the supervisor reads ([`ModelReport`]) and the outcome
+//! of a slow-rate redesign ([`Redesign`]). The logic is in [`super`]; what the controller reports
+//! each sample (`FALLBACK` when the baseline drives) is [`crate::control::ControlFlags`].
 
 use crate::control::placement::{Rejection, VelocityModel};
 use crate::ident::status::Status;

@@ -27,13 +27,12 @@
 //!
 //! # Formats
 //! Signals (s, ŷ, ε, ψ) I16F16 in the conditioned units (y in quanta, u in full-scale units), θ
-//! I12F20, feedback coefficients I12F20; the neuron as [`term`]. Every narrowing saturates and sets
+//! I12F20, feedback coefficients I12F20; the neuron as [`crate::ident::neuron::term`]. Every narrowing saturates and sets
 //! [`Status::SATURATED`].
 
 #![deny(clippy::float_arithmetic)]
 
 pub mod structure;
-pub mod term;
 
 pub use structure::{Lags, NonlinearStructure};
 
@@ -133,17 +132,14 @@ impl<const N: usize> NonlinearDesign<N> {
         for (q, &x) in theta0.iter_mut().zip(self.theta0.iter()) {
             *q = ParamI12F20::from_f64(x).map_err(|_| ConfigError::InitialModel(x))?;
         }
-        let na = self.structure.na();
-        if !theta0.get(..na).is_some_and(|den| radius.contains(den)) {
-            let f1 = self.theta0.first().copied().unwrap_or(f64::NAN);
-            return Err(ConfigError::InitialModel(f1));
-        }
-        Ok(NonlinearConfig {
+        let config = NonlinearConfig {
             structure: self.structure,
             theta0,
             rls: self.rls.build()?,
             radius,
-        })
+        };
+        config.validate()?;
+        Ok(config)
     }
 }
 
@@ -167,6 +163,31 @@ pub struct NonlinearState<const N: usize> {
 }
 
 impl<const N: usize> NonlinearConfig<N> {
+    /// The invariants the estimator relies on, checked by [`NonlinearDesign::build`] and by the
+    /// decoding of configuration words alike: N the structure's parameter count, a valid pole
+    /// radius, θ₀'s denominator inside it.
+    ///
+    /// # Errors
+    /// [`ConfigError::ParameterCount`], [`ConfigError::StabilityMargin`] or
+    /// [`ConfigError::InitialModel`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let expected = self.structure.parameter_count();
+        if expected != N {
+            return Err(ConfigError::ParameterCount { expected, n: N });
+        }
+        self.radius.validate()?;
+        let na = self.structure.na();
+        if !self
+            .theta0
+            .get(..na)
+            .is_some_and(|den| self.radius.contains(den))
+        {
+            let f1 = self.theta0.first().map_or(f64::NAN, |p| p.to_f64());
+            return Err(ConfigError::InitialModel(f1));
+        }
+        Ok(())
+    }
+
     /// A fresh state at θ₀, P = p₀·I, zero history.
     pub fn new_state(&self) -> NonlinearState<N> {
         NonlinearState {
@@ -332,21 +353,17 @@ impl<const N: usize> NonlinearConfig<N> {
     /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
     pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
         let structure = NonlinearStructure::take(r);
-        r.check(structure.parameter_count() == N);
         let theta0 = <[ParamI12F20; N]>::take(r);
         let radius = PoleRadius::take(r);
-        r.check(
-            theta0
-                .get(..structure.na())
-                .is_some_and(|den| radius.contains(den)),
-        );
         let rls = RlsDesign::take(r);
         r.status()?;
-        Ok(Self {
+        let config = Self {
             structure,
             theta0,
             rls: rls.build()?,
             radius,
-        })
+        };
+        config.validate()?;
+        Ok(config)
     }
 }

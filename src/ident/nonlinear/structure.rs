@@ -28,8 +28,8 @@
 
 #![deny(clippy::float_arithmetic)]
 
-use super::term;
 use crate::error::ConfigError;
+use crate::ident::neuron::term;
 use crate::ident::rls::RlsConfig;
 use crate::num::fixed::{PARAM_FRAC_BITS, ParamI12F20, SignalI16F16, sat_i32};
 use crate::words::{WordReader, WordWriter, Words};

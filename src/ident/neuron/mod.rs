@@ -68,6 +68,8 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod term;
+
 use crate::error::ConfigError;
 use crate::ident::status::Status;
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
@@ -286,33 +288,26 @@ impl Neuron {
         g_from_tanh(self.w, t)
     }
 
-    /// g(x) and its derivatives with respect to x, w, a and c.
+    /// g(x) and its derivatives with respect to x, w, a and c: [`term::eval`] with one input,
+    /// and ∂g/∂x as an I16F16 signal.
     pub fn eval(&self, x: SignalI16F16) -> NeuronOutput {
-        let mut sat = false;
-        let t = tanh_i2f30(self.argument_i8f24(x));
-        // t² ≤ 2^60 in I4F60; s = 1 − t² ∈ [0, 2^30].
-        let s = ONE_I2F30 - shr_round_i64(mul_i32_wide(t, t), TANH_FRAC_BITS) as i32;
-        // w·s in I12F20: |w·s| ≤ |w| since s ≤ 1, so it fits (the cast is exact).
-        let ws_i12f20 = shr_round_i64(mul_i32_wide(self.w.raw(), s), TANH_FRAC_BITS) as i32;
-        // I12F20 × I12F20 = I24F40 → I16F16; I12F20 × I16F16 = I28F36 → I16F16.
+        let o = term::eval(self.w, [self.a], self.c, [x]);
+        let mut sat = o.da_saturated;
+        // I12F20 × I12F20 = I24F40 → I16F16.
         let dg_dx = sat_i32(
-            shr_round_i64(mul_i32_wide(ws_i12f20, self.a.raw()), 24),
+            shr_round_i64(mul_i32_wide(o.ws_i12f20, self.a.raw()), 24),
             &mut sat,
         );
-        let da = sat_i32(
-            shr_round_i64(mul_i32_wide(ws_i12f20, x.raw()), 20),
-            &mut sat,
-        );
+        let [da] = o.da;
         NeuronOutput {
-            g: g_from_tanh(self.w, t),
-            tanh_i2f30: t,
-            sech2_i2f30: s,
+            g: o.g,
+            tanh_i2f30: o.tanh_i2f30,
+            sech2_i2f30: o.sech2_i2f30,
             dg_dx: SignalI16F16::from_raw(dg_dx),
             grad: NeuronGradient {
-                // I2F30 → I16F16 and I12F20 → I16F16: both shrink, no saturation.
-                dw: SignalI16F16::from_raw(shr_round_i64(i64::from(t), 14) as i32),
-                da: SignalI16F16::from_raw(da),
-                dc: SignalI16F16::from_raw(shr_round_i64(i64::from(ws_i12f20), 4) as i32),
+                dw: o.dw,
+                da,
+                dc: o.dc,
             },
             status: if sat { Status::SATURATED } else { Status::NONE },
         }

@@ -39,7 +39,15 @@ pub struct TermOutput<const K: usize> {
     pub dc: SignalI16F16,
     /// ∂g/∂xᵢ = w·s·aᵢ, I12F20 raw.
     pub dg_dx_i12f20: [i32; K],
-    /// A derivative saturated.
+    /// t = tanh z, I2F30 raw.
+    pub tanh_i2f30: i32,
+    /// s = 1 − t², I2F30 raw.
+    pub sech2_i2f30: i32,
+    /// w·s, I12F20 raw.
+    pub ws_i12f20: i32,
+    /// A ∂g/∂aᵢ saturated.
+    pub da_saturated: bool,
+    /// A derivative saturated (∂g/∂aᵢ or ∂g/∂xᵢ).
     pub saturated: bool,
 }
 
@@ -50,7 +58,7 @@ pub fn eval<const K: usize>(
     c: ParamI12F20,
     x: [SignalI16F16; K],
 ) -> TermOutput<K> {
-    let mut sat = false;
+    let (mut da_sat, mut dx_sat) = (false, false);
     // aᵢ·xᵢ < 2^62 each: a saturating sum (saturation means |z| ≫ 8, where tanh is ±1 exactly).
     let mut z_i28f36: i64 = i64::from(c.raw()) << 16;
     for (ai, xi) in a.iter().zip(x.iter()) {
@@ -73,11 +81,11 @@ pub fn eval<const K: usize>(
         // I12F20 × I16F16 = I28F36 → I16F16; I12F20 × I12F20 = I24F40 → I12F20.
         *d = SignalI16F16::from_raw(sat_i32(
             shr_round_i64(mul_i32_wide(ws_i12f20, xi.raw()), 20),
-            &mut sat,
+            &mut da_sat,
         ));
         *dx = sat_i32(
             shr_round_i64(mul_i32_wide(ws_i12f20, ai.raw()), 20),
-            &mut sat,
+            &mut dx_sat,
         );
     }
     TermOutput {
@@ -87,14 +95,18 @@ pub fn eval<const K: usize>(
         da,
         dc: SignalI16F16::from_raw(shr_round_i64(i64::from(ws_i12f20), 4) as i32),
         dg_dx_i12f20,
-        saturated: sat,
+        tanh_i2f30: t,
+        sech2_i2f30: s,
+        ws_i12f20,
+        da_saturated: da_sat,
+        saturated: da_sat || dx_sat,
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::Neuron;
     use super::*;
-    use crate::ident::neuron::Neuron;
 
     fn p(x: f64) -> ParamI12F20 {
         ParamI12F20::from_f64(x).unwrap()
@@ -103,18 +115,32 @@ mod tests {
         SignalI16F16::from_f64(x).unwrap()
     }
 
+    /// K = 1 against float64: value and every derivative, and the neuron's own ∂g/∂x (I16F16)
+    /// against the I12F20 one. Trips on a wrong shift or rounding in either.
     #[test]
-    fn one_input_matches_the_neuron_bit_for_bit() {
+    fn one_input_matches_float64() {
         for &(w, a, c) in &[(0.0, 1.0, 0.0), (3.5, 0.7, -0.4), (-120.0, 0.05, 0.3)] {
             let n = Neuron::new(p(w), p(a), p(c));
             for k in -40..=40 {
-                let x = s(f64::from(k) * 0.37);
-                let o = n.eval(x);
+                let xf = f64::from(k) * 0.37;
+                let x = s(xf);
                 let t = eval(p(w), [p(a)], p(c), [x]);
-                assert_eq!(
-                    (t.g, t.dw, t.da[0], t.dc),
-                    (o.g, o.grad.dw, o.grad.da, o.grad.dc)
+                let (wq, aq, cq, xq) = (p(w).to_f64(), p(a).to_f64(), p(c).to_f64(), x.to_f64());
+                let th = (aq * xq + cq).tanh();
+                let ws = wq * (1.0 - th * th);
+                let lsb = 1.0 / 65_536.0;
+                // tanh's table error (≈ 9.4·10⁻⁵) scaled by |w|, plus rounding.
+                assert!(
+                    (t.g.to_f64() - wq * th).abs() < wq.abs() * 1e-4 + lsb,
+                    "{w} {k}"
                 );
+                assert!((t.dw.to_f64() - th).abs() < 1e-4 + lsb);
+                assert!((t.dc.to_f64() - ws).abs() < wq.abs() * 2e-4 + lsb);
+                assert!((t.da[0].to_f64() - ws * xq).abs() < wq.abs() * xq.abs() * 2e-4 + lsb);
+                let dx_term = f64::from(t.dg_dx_i12f20[0]) / 1_048_576.0;
+                let dx_neuron = n.eval(x).dg_dx.to_f64();
+                assert!((dx_term - ws * aq).abs() < wq.abs() * aq * 2e-4 + 1e-6);
+                assert!((dx_neuron - dx_term).abs() <= lsb, "{dx_neuron} {dx_term}");
             }
         }
     }
