@@ -129,8 +129,8 @@ pub enum ConfigError {
         /// Index of the offending word.
         at: usize,
     },
-    /// Configuration words of another format (the first word, [`crate::words::WORDS_VERSION`]
-    /// expected).
+    /// Configuration words of another format (their first word; the words' module names the one
+    /// this build reads).
     WordsVersion(u32),
     /// Configuration words whose CRC-32 does not match: corrupted in storage or transfer.
     WordsChecksum,
@@ -236,8 +236,7 @@ impl fmt::Display for ConfigError {
             ),
             Self::WordsVersion(v) => write!(
                 f,
-                "configuration words of format {v:#010x}: expected {:#010x}",
-                crate::words::WORDS_VERSION
+                "configuration words of format {v:#010x}: not the format this build reads"
             ),
             Self::WordsChecksum => write!(f, "configuration words: the CRC-32 does not match"),
             Self::HandoverLatency(l) => write!(

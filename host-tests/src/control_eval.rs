@@ -24,7 +24,7 @@
 
 use serde::Serialize;
 use sledid::control::{ControlFlags, InverseInputMap, Redesign, Region, ScheduledDesign};
-use sledid::ident::linear::Estimate;
+use sledid::ident::estimator::Estimate;
 use sledid::ident::nonlinear::NonlinearDesign;
 use sledid::ident::step::IdentifierDesign;
 use sledid::servo::{ServoDesign, SledServo, SledServoState, WIENER_N};

@@ -36,7 +36,7 @@ fn run(
 ) -> (
     ScheduledLoop,
     ScheduledLoop,
-    Vec<(f64, Option<sledid::ident::linear::Estimate>)>,
+    Vec<(f64, Option<sledid::ident::estimator::Estimate>)>,
 ) {
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();

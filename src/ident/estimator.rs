@@ -6,9 +6,21 @@
 //! quantised configuration (`&self` in the per-sample call) and a state it mutates.
 
 use crate::error::ConfigError;
-use crate::ident::linear::Estimate;
 use crate::ident::rls::RlsState;
+use crate::ident::status::Status;
 use crate::num::fixed::{ParamI12F20, SignalI16F16};
+
+/// What one sample of estimation produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// The a priori prediction (ARX), or the simulated output (OE, nonlinear models), ŷ(t) = φ(t)ᵀθ(t−1).
+    pub y_hat: SignalI16F16,
+    /// ε(t) = y(t) − ŷ(t).
+    pub eps: SignalI16F16,
+    /// What the estimator did.
+    pub status: Status,
+}
 
 /// A validated model estimator with N parameters.
 pub trait Estimator<const N: usize> {

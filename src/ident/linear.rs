@@ -17,7 +17,7 @@
 //! and otherwise undone ([`Status::PROJECTED`]); P keeps its update (Ljung 1999, §11.3).
 
 use crate::error::ConfigError;
-use crate::ident::estimator::{Estimator, EstimatorDesign};
+use crate::ident::estimator::{Estimate, Estimator, EstimatorDesign};
 use crate::ident::regressor::{History, MAX_DELAY};
 use crate::ident::rls::{RlsConfig, RlsDesign, RlsState};
 use crate::ident::stability::{PoleRadius, project_denominator};
@@ -180,18 +180,6 @@ pub struct LinearState<const N: usize> {
     rls: RlsState<N>,
     history: History<N>,
     psi_lag: [[SignalI16F16; N]; 2],
-}
-
-/// What one sample of estimation produced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Estimate {
-    /// The a priori prediction (ARX) or simulated output (OE), ŷ(t) = φ(t)ᵀθ(t−1).
-    pub y_hat: SignalI16F16,
-    /// ε(t) = y(t) − ŷ(t).
-    pub eps: SignalI16F16,
-    /// What the estimator did.
-    pub status: Status,
 }
 
 impl<const N: usize> LinearConfig<N> {

@@ -131,7 +131,7 @@ impl<S: PositionSensor, D: Drive> ControlLoop<S, D> {
     }
 
     /// One sample: read, step, drive. The output's `identifier` status carries
-    /// [`crate::Status::INPUT_REJECTED`] when the reading failed.
+    /// [`crate::ident::status::Status::INPUT_REJECTED`] when the reading failed.
     ///
     /// # Errors
     /// The drive's error (the servo state has advanced; the caller decides what to do with a

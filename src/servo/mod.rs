@@ -36,7 +36,8 @@ use crate::control::{
 use crate::error::ConfigError;
 use crate::ident::conditioning::Conditioning;
 use crate::ident::decimate::{DecimatorConfig, DecimatorState};
-use crate::ident::linear::{Estimate, LinearConfig, LinearDesign, Structure};
+use crate::ident::estimator::Estimate;
+use crate::ident::linear::{LinearConfig, LinearDesign, Structure};
 use crate::ident::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
 use crate::ident::rls::{AntiWindup, RlsDesign};
 use crate::ident::step::{Identifier, IdentifierConfig, IdentifierDesign, StepOutput};
@@ -311,7 +312,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     }
 
     /// A sample whose position could not be read: the last position read is held
-    /// (sample-and-hold), the supervisor sees [`crate::Status::INPUT_REJECTED`] (which distrusts
+    /// (sample-and-hold), the supervisor sees [`crate::ident::status::Status::INPUT_REJECTED`] (which distrusts
     /// the model), the identifier holds θ and P. The loop goes on. Never panics.
     pub fn step_lost(
         &self,

@@ -37,8 +37,8 @@ pub mod structure;
 pub use structure::{Lags, NonlinearStructure};
 
 use crate::error::ConfigError;
+use crate::ident::estimator::Estimate;
 use crate::ident::estimator::{Estimator, EstimatorDesign};
-use crate::ident::linear::Estimate;
 use crate::ident::neuron::INITIAL_BIAS_SPREAD;
 use crate::ident::rls::{RlsConfig, RlsDesign, RlsState};
 use crate::ident::stability::{PoleRadius, project_denominator};
