@@ -62,17 +62,15 @@
 //! # Accuracy
 //! - Against the float64 law (`host-tests/src/reference/control.rs`), open loop on the same
 //!   inputs: |u − u_f64| ≤ 2⁻¹⁷ u_fs (half an output LSB) + the gains' 2⁻³¹ relative rounding + the
-//!   filters' 2⁻¹⁷ quanta per sample; measured 7.65·10⁻⁶ u_fs on the twin's baseline (7.69·10⁻⁶
-//!   with the prefilter) and 7.63·10⁻⁶ u_fs on EMPS, asserted < 8·10⁻⁶
-//!   (`fixed_point_matches_float64_on_twin_and_emps` in `host-tests/tests/control.rs`).
+//!   filters' 2⁻¹⁷ quanta per sample, asserted < 8·10⁻⁶ u_fs on the twin's baseline (with and
+//!   without the prefilter) and on EMPS (`fixed_point_matches_float64_on_twin_and_emps` in
+//!   `host-tests/tests/control.rs`).
 //! - In the twin's loop the baseline configuration follows the f64 law with its output rounded to
-//!   the I16F16 grid sample for sample (through the first seek on every seed, the whole run on two
-//!   of four); against the unrounded f64 baseline 23 of 24 seeks settle within one sample period
-//!   and every seek ends in the ±1-quantum limit cycle
+//!   the I16F16 grid sample for sample, and against the unrounded f64 baseline its seeks settle
+//!   within one sample period and end in the ±1-quantum limit cycle
 //!   (`fixed_point_baseline_reproduces_the_twin_closed_loop`).
-//! - The EMPS configuration reproduces the recorded `vir` to 0.0037 V RMS (0.0105 V including the
-//!   two priming samples); a first-order low-pass of the difference instead reaches 0.0051 V at
-//!   best (175 Hz) (`emps_controller_reproduces_the_recorded_drive`).
+//! - The EMPS configuration reproduces the recorded `vir` within the bound
+//!   `emps_controller_reproduces_the_recorded_drive` asserts.
 
 use super::integrator::integrate;
 use super::{ControlFlags, ControlInput, ControlOutput, Controller, Region};

@@ -59,14 +59,8 @@
 //!
 //! # Cost
 //! Per output: 6 widening multiplies ([`mul_i32_wide`]: `UMULL` with sign fix-ups on Armv7-M, four
-//! `MULS` on Armv6-M) and 13 loads; per discarded input: one store. Per input sample
-//! (`bench_decimate_push` in `src/bin/bench.rs`, `count_insns.py`, 256 calls, including ~26/29
-//! instructions of bench scaffolding):
-//!
-//! | core | mean | output sample (max) | discarded sample (min) | stack |
-//! |---|---|---|---|---|
-//! | Cortex-M4F | 166 instructions ≈ 218 cycles | 289 ≈ 356 cycles | 43 ≈ 80 cycles | 52 B |
-//! | Cortex-M0+ | 266 instructions ≈ 366 cycles | 489 ≈ 652 cycles | 47 ≈ 81 cycles | 84 B |
+//! `MULS` on Armv6-M) and 13 loads; per discarded input: one store. Measured per call:
+//! `bench_decimate_push` in BENCHMARKS.md.
 //!
 //! State per signal (`DecimatorState`): 30 words of delay line (the 12 newest second-of-pair samples
 //! stored twice, 6 first-of-pair samples) and two indices, 132 B on a 32-bit target.

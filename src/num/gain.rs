@@ -44,8 +44,8 @@ impl Gain {
     ///
     /// `m = round(g·2¹⁶·2^s)` with the smallest `s ≤ 62` that puts |m| in [2³⁰, 2³¹), computed from
     /// the bits of `g` (exponent and 53-bit mantissa) with integer shifts only: it runs in the
-    /// slow-rate redesign on cores without a double-precision FPU, where a loop of `f64`
-    /// multiplications cost ~3,000 instructions per gain (`bench_sched_redesign`).
+    /// slow-rate redesign on cores without a double-precision FPU, where a loop of soft-float `f64`
+    /// multiplications would cost far more (`bench_sched_redesign` in BENCHMARKS.md).
     pub fn from_f64(g: f64) -> Option<Self> {
         if !g.is_finite() {
             return None;

@@ -36,17 +36,15 @@
 //!
 //! # Accuracy
 //! Against the float64 law (`host-tests/src/reference/scheduled.rs`) in the twin's closed loop, 30
-//! seeks: identical regions and fallback decisions; |u − u_f64| ≤ 8.9·10⁻⁶ full scale without
-//! compensation (output LSB, gain rounding), ≤ 2.5·10⁻³ with the Coulomb inverse map (the table's
-//! interpolation at the map's steep centre), ≤ 8.5·10⁻⁴ with a Wiener output map
-//! m(x) = x + 2·tanh(0.2·x); asserted < 2·10⁻⁵ / < 4·10⁻³
+//! seeks: identical regions and fallback decisions; |u − u_f64| < 2·10⁻⁵ full scale without
+//! compensation (output LSB, gain rounding), < 4·10⁻³ with the Coulomb inverse map or a Wiener
+//! output map (the table's interpolation at the map's steep centre)
 //! (`fixed_point_matches_float64_in_closed_loop` in `host-tests/tests/scheduled_control.rs`); an
 //! identity output map is bit-identical to none (`output_map_acts_only_in_settle_and_identity_is_exact`).
 //!
 //! # Cost
-//! `bench_sched_step` (`src/bin/bench.rs`, `cargo xtask cost`, scaffolding subtracted): Cortex-M4F
-//! 575 instructions ≈ 765 cycles, Cortex-M0+ 1,052 ≈ 1,584 cycles (2.3 % / 7.3 % of Ts at 72 / 48
-//! MHz). The redesign (`bench_sched_redesign`, outside the interrupt) ≈ 1,511 / 6,182 instructions.
+//! `bench_sched_step` and `bench_sched_redesign` (the redesign, outside the interrupt) in
+//! BENCHMARKS.md.
 
 #![deny(clippy::float_arithmetic)]
 

@@ -60,11 +60,8 @@
 //!
 //! # Cost
 //! One neuron with its gradient: 7 widening multiplies and one table look-up; the value alone: 3.
-//! The 2-neuron layer with g, ∂g/∂x and all six parameter derivatives (`bench_neuron_eval` in
-//! `src/bin/bench.rs`, `count_insns.py`, 256 calls, including ~26/29 instructions of bench
-//! scaffolding): Cortex-M4F 504 instructions ≈ 644 cycles, 140 B stack; Cortex-M0+ 897 instructions
-//! ≈ 1,208 cycles, 164 B stack. On Armv7-M most of it is the sign handling around `UMULL` in
-//! [`mul_i32_wide`] and the 64-bit rounding shifts.
+//! Measured per call (the 2-neuron layer with every derivative): `bench_neuron_eval` in
+//! BENCHMARKS.md.
 
 #![deny(clippy::float_arithmetic)]
 
