@@ -18,7 +18,8 @@
 
 use crate::error::ConfigError;
 use crate::ident::estimator::{Estimate, Estimator, EstimatorDesign};
-use crate::ident::regressor::{History, MAX_DELAY};
+use crate::ident::regressor::History;
+pub use crate::ident::regressor::MAX_DELAY;
 use crate::ident::rls::{RlsConfig, RlsDesign, RlsState};
 use crate::ident::stability::{PoleRadius, project_denominator};
 use crate::ident::status::Status;

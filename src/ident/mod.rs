@@ -6,7 +6,7 @@ pub mod estimator;
 pub mod linear;
 pub mod neuron;
 pub mod nonlinear;
-pub mod regressor;
+pub(crate) mod regressor;
 pub mod rls;
 pub mod stability;
 pub mod status;

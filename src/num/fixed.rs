@@ -16,7 +16,7 @@
 //! | covariance factor U (off-diagonal) | `i32` I8F24 in [`crate::ident::rls`] | ratio of parameter units | ±128 | 6·10⁻⁸ |
 //! | covariance factor D, α, 1/α | [`crate::num::dyadic::Dyadic`] | parameter² per signal² | 2^±16384 | 2⁻³² relative |
 //!
-//! Positions enter as counts *relative to the reference or differenced* (see [`crate::ident::regressor`]):
+//! Positions enter as counts *relative to the reference or differenced* (see [`crate::ident::conditioning`]):
 //! the findings of the float64 study are that regressors in absolute counts give cond(ΦᵀΦ) ≈ 3·10¹¹ and
 //! break 32-bit arithmetic, while centred ones keep float32 within 3·10⁻⁴ of float64. Absolute
 //! positions therefore never reach the estimator; their range is the boundary's problem, where

@@ -3,6 +3,6 @@
 pub mod boundary;
 pub mod dyadic;
 pub mod fixed;
-pub mod float_bits;
+pub(crate) mod float_bits;
 pub mod gain;
 pub mod wide;

@@ -4,7 +4,8 @@
 //!   clippy, a nightly toolchain for cargo-fuzz, `qemu-system-arm`, `defmt-print`); `test` runs it
 //!   first, so the README's test command is all a newcomer runs.
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
-//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, and every host test (overflow checks on).
+//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, every host test (overflow checks on), the
+//!   library's docs with warnings denied, and a short fuzz run of every target.
 //! - `fmt`: format the workspace.
 //! - `fuzz [RUNS]`: every cargo-fuzz target for RUNS executions (default 10⁷) on its committed corpus.
 //! - `cost`: build the bench image for Cortex-M4F and M0+ and count instructions / estimate cycles
@@ -16,9 +17,18 @@ use std::process::{Command, ExitCode};
 const THUMB_TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 
 fn cargo(args: &[&str]) -> bool {
+    cargo_env(args, &[])
+}
+
+/// `cargo args…` with extra environment variables.
+fn cargo_env(args: &[&str], env: &[(&str, &str)]) -> bool {
     println!("\n==> cargo {}", args.join(" "));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    match Command::new(cargo).args(args).status() {
+    match Command::new(cargo)
+        .args(args)
+        .envs(env.iter().copied())
+        .status()
+    {
         Ok(s) => s.success(),
         Err(e) => {
             eprintln!("xtask: cannot run cargo: {e}");
@@ -184,7 +194,13 @@ fn test() -> bool {
         steps.push(vec!["build", "--lib", "--release", "--target", t]);
     }
     steps.push(vec!["test", "--workspace"]);
-    steps.iter().all(|s| cargo(s)) && fuzz(20_000)
+    steps.iter().all(|s| cargo(s))
+        // The library's docs: every intra-doc link resolves, nothing public links a private item.
+        && cargo_env(
+            &["doc", "--no-deps", "--lib", "-p", "sledid"],
+            &[("RUSTDOCFLAGS", "-D warnings")],
+        )
+        && fuzz(20_000)
 }
 
 /// The cargo-fuzz targets (fuzz/fuzz_targets).

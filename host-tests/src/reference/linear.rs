@@ -57,7 +57,7 @@ impl<const N: usize> LinearF64<N> {
             nk: design.nk,
             radius: design.stability_margin.map(|m| 1.0 - m),
             y_lag: vec![0.0; N],
-            u_lag: vec![0.0; N + sledid::ident::regressor::MAX_DELAY],
+            u_lag: vec![0.0; N + sledid::ident::linear::MAX_DELAY],
             psi_lag: [[0.0; N]; 2],
             signal_grid: false,
         }
