@@ -1,5 +1,5 @@
-//! The recording reader on arbitrary file contents: every outcome is a sample or a typed error, never
-//! a panic. The first byte picks the mapping and header mode; the rest is the file.
+//! The recording reader on arbitrary file contents: every outcome is a sample or a typed error (and
+//! its message), never a panic. The first byte picks the mapping and header mode; the rest is the file.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -31,11 +31,16 @@ fuzz_target!(|data: &[u8]| {
     if mode & 0x80 != 0 {
         opts.ts_s = Some(1e-3);
     }
-    if let Ok(reader) = RecordingReader::open(&path, &opts) {
-        for item in reader.take(100_000) {
-            if item.is_err() {
-                break;
+    // Every error is formatted too: its message quotes the file's text as a bounded excerpt.
+    match RecordingReader::open(&path, &opts) {
+        Ok(reader) => {
+            for item in reader.take(100_000) {
+                if let Err(error) = item {
+                    let _ = error.to_string();
+                    break;
+                }
             }
         }
+        Err(error) => drop(error.to_string()),
     }
 });

@@ -521,9 +521,14 @@ struct StudyArgs {
     /// Sampling period (s) when there is no time column (or to check the one there is).
     #[arg(long)]
     ts: Option<f64>,
-    /// Sensor quantum in the y column's unit (y and r are divided by it), e.g. 1.6e-6.
+    /// Unit of y in the y column's unit (y and r are divided by it): the sensor quantum, e.g.
+    /// 1.6e-6, for figures in quanta as in the paper; or any scale, e.g. 0.001 for V → mV.
     #[arg(long, default_value_t = 1.0)]
     y_unit: f64,
+    /// Name of that unit in the table and plots, e.g. `quanta` or `mV`; default: "Y × y-column
+    /// unit" (Y the --y-unit).
+    #[arg(long, conflicts_with = "twin")]
+    y_unit_name: Option<String>,
     /// Factor from the u column to volts.
     #[arg(long, default_value_t = 1.0)]
     u_scale: f64,
@@ -563,6 +568,7 @@ fn study_cmd(a: &StudyArgs) -> Result<(), String> {
             columns: columns.clone(),
             ts_s: a.ts,
             y_unit: a.y_unit,
+            y_unit_name: a.y_unit_name.clone(),
             u_scale: a.u_scale,
             ident,
             valid,

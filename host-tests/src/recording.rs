@@ -6,7 +6,8 @@
 //! `u=vir_ctrl_V,y=qm_meas_pos_m,r=qg_ref_pos_m,t=t_s` or `u=0,y=2`.
 //!
 //! Accepted layouts: a comma- (or `;`-) separated file with a header row, a whitespace-separated
-//! file with or without header, quoted header names, one trailing empty field per row (as in
+//! file with or without header, a UTF-8 byte-order mark at the start of the file (as spreadsheet
+//! programs write it; dropped), quoted header names, one trailing empty field per row (as in
 //! Silverbox's `0.0057756,0.0093978,`), blank lines at the very end. Only mapped columns are
 //! parsed as numbers, but every row must have the header's field count.
 //!
@@ -14,9 +15,10 @@
 //! the user gives when no time column is mapped (time is then synthesised as `index × Ts`). With
 //! both, they must agree within [`ReaderOptions::ts_relative_tolerance`] and the given `ts_s` is
 //! used. Every row is validated; nothing is skipped. Errors ([`RecordingError`]) name the file,
-//! the 1-based line and the column. Errors in the first [`LOOKAHEAD_ROWS`] rows, which are read
-//! ahead to find Ts, are still reported by the iterator, in file order. Jitter statistics
-//! ([`RecordingSummary`]) are available once the iterator is exhausted, or from [`read_all`].
+//! the 1-based line and the column, and quote the file's text as a bounded [`Excerpt`]. Errors
+//! in the first [`LOOKAHEAD_ROWS`] rows, which are read ahead to find Ts, are still reported by
+//! the iterator, in file order. Jitter statistics ([`RecordingSummary`]) are available once the
+//! iterator is exhausted, or from [`read_all`].
 //!
 //! Roles, scales and the output quantum are metadata of the reader ([`RecordingMeta`]); the
 //! reader multiplies by the scales but never rounds to the quantum.
@@ -70,7 +72,9 @@ use std::io::BufReader;
 use std::ops::Range;
 use std::path::Path;
 
-pub use error::{ColumnLocation, RecordingError, RecordingErrorKind};
+pub use error::{
+    ColumnLocation, EXCERPT_CHARS, Excerpt, LISTED_NAMES, RecordingError, RecordingErrorKind,
+};
 pub use mapping::{ColumnMapping, ColumnRef, MappingError, ResolvedColumns, Role};
 pub use options::{ReaderOptions, RecordingMeta, RoleScales};
 pub use text::{Delimiter, HeaderMode};

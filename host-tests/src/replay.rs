@@ -309,7 +309,9 @@ fn replay_nonlinear<const N: usize>(
     replay_model(file, spec, out, model, reference, label)
 }
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
+/// The `p`-quantile (0 ≤ p ≤ 1) of ascending `sorted` by nearest rank: the element of 0-based rank
+/// `round((n − 1)·p)`; 0 for no data. The deadline statistics' p50 and p99.
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
     }

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use sledid_host::recording::{
-    ColumnMapping, ColumnRef, Delimiter, HeaderMode, MappingError, ReaderOptions, Recording,
-    RecordingError, RecordingErrorKind, RecordingReader, Role, RoleScales, read_all,
+    ColumnMapping, ColumnRef, Delimiter, EXCERPT_CHARS, Excerpt, HeaderMode, MappingError,
+    ReaderOptions, Recording, RecordingError, RecordingErrorKind, RecordingReader, Role,
+    RoleScales, read_all,
 };
 
 const EMPS: &str = concat!(
@@ -779,6 +780,177 @@ fn quoted_header_with_trailing_commas() {
             y: 0.4,
             r: None
         }
+    );
+}
+
+// ---------------------------------------------------------------- byte-order mark
+
+/// A CSV saved "UTF-8 with BOM" (spreadsheet programs): the header's first name is `t`, not
+/// `\u{feff}t`. Catches a reader that keeps the BOM in the first field (issue 12: "unknown column
+/// name `t`; available: `\u{feff}t`").
+#[test]
+fn byte_order_mark_before_a_csv_header_is_dropped() {
+    let recording = read_ok(
+        "bom.csv",
+        "\u{feff}t;u;y\r\n0;1;2\r\n0.5;3;4\r\n",
+        &options("t=t,u=u,y=y"),
+    );
+    assert_eq!(
+        recording.meta.column_names.as_deref(),
+        Some(&["t".to_owned(), "u".into(), "y".into()][..])
+    );
+    assert_eq!(recording.samples.len(), 2);
+    assert_eq!(
+        (recording.samples[1].t_s, recording.samples[1].u),
+        (0.5, 3.0)
+    );
+}
+
+/// A headerless whitespace file with a BOM: the BOM is not whitespace, so a reader that kept it
+/// would glue it to the first number (then take the first row for a header, or refuse it).
+#[test]
+fn byte_order_mark_before_headerless_whitespace_data_is_dropped() {
+    let recording = read_ok(
+        "bom.txt",
+        "\u{feff}0.0 1 2\n0.5 3 4\n",
+        &options("t=0,u=1,y=2"),
+    );
+    assert_eq!(recording.meta.column_names, None);
+    assert_eq!(recording.samples.len(), 2);
+    assert_eq!(
+        (recording.samples[0].t_s, recording.samples[0].u),
+        (0.0, 1.0)
+    );
+}
+
+/// Only the file's first character may be a BOM: one inside the data is a non-numeric field, not
+/// something to strip silently (catches a reader that deletes U+FEFF everywhere).
+#[test]
+fn byte_order_mark_inside_the_data_is_an_error() {
+    let error = read_error(
+        "bom-inside.csv",
+        "t,u,y\n0,1,2\n0.5,\u{feff}3,4\n",
+        &options("t=t,u=u,y=y"),
+    );
+    assert!(
+        matches!(error.kind(), RecordingErrorKind::NonNumeric { text } if text == "\u{feff}3"),
+        "{error:?}"
+    );
+    assert_located(&error, 3, "column 1 `u`");
+}
+
+// ---------------------------------------------------------------- long text in messages
+
+/// A 5,000-digit field (it parses, to infinity): the error keeps the whole text but its message
+/// quotes the first 40 characters and the length, and still names file, line and column. Catches
+/// a message that quotes the field whole (issue 12).
+#[test]
+fn a_long_field_is_quoted_as_a_bounded_excerpt() {
+    let digits = "9".repeat(5_000);
+    let error = read_error(
+        "long-field.csv",
+        &format!("t,u,y\n0,1,2\n0.5,{digits},4\n"),
+        &options("t=t,u=u,y=y"),
+    );
+    assert!(
+        matches!(error.kind(), RecordingErrorKind::NonFinite { text } if *text == digits),
+        "the error keeps the whole field"
+    );
+    assert_located(&error, 3, "column 1 `u`");
+    let message = error.to_string();
+    let path_len = error.path.display().to_string().len();
+    println!("{message}");
+    assert!(
+        message.contains(&format!(
+            "`{}…` (5000 characters)",
+            &digits[..EXCERPT_CHARS]
+        )),
+        "{message}"
+    );
+    assert!(message.len() < path_len + 200, "{} bytes", message.len());
+}
+
+/// The excerpt counts characters and cuts between them: a field of 3,000 two-byte characters
+/// (catches slicing inside a UTF-8 sequence, which panics); exactly 40 characters are quoted whole,
+/// 41 are cut (catches an off-by-one at the limit).
+#[test]
+fn excerpts_cut_between_characters_at_the_limit() {
+    let accents = "é".repeat(3_000);
+    let error = read_error(
+        "long-utf8.csv",
+        &format!("u,y\n{accents},1\n"),
+        &options_ts("u=u,y=y", 1.0),
+    );
+    let message = error.to_string();
+    assert!(
+        message.contains(&format!(
+            "`{}…` (3000 characters)",
+            "é".repeat(EXCERPT_CHARS)
+        )),
+        "{message}"
+    );
+    assert_located(&error, 2, "column 0 `u`");
+    for (n, cut) in [(EXCERPT_CHARS, false), (EXCERPT_CHARS + 1, true)] {
+        let text = "x".repeat(n);
+        let quoted = Excerpt(&text).to_string();
+        assert_eq!(quoted.contains('…'), cut, "{n} characters: {quoted}");
+        assert!(quoted.starts_with(&format!("`{}", "x".repeat(EXCERPT_CHARS))));
+    }
+}
+
+/// A header of 100 columns whose first name has 5,000 characters: an unknown-column message lists
+/// the first 20 names, each as an excerpt, and counts the rest; a data error in that column quotes
+/// its name as an excerpt too. Catches a message that grows with the header.
+#[test]
+fn long_header_names_and_many_columns_are_quoted_bounded() {
+    let long_name = "n".repeat(5_000);
+    let names: Vec<String> = std::iter::once(long_name.clone())
+        .chain((1..100).map(|i| format!("c{i}")))
+        .collect();
+    let header = names.join(",");
+    let row = vec!["1"; 100].join(",");
+    let error = read_error(
+        "wide.csv",
+        &format!("{header}\n{row}\n"),
+        &options_ts("u=c1,y=pos", 1.0),
+    );
+    let message = error.to_string();
+    println!("{message}");
+    assert!(
+        matches!(error.kind(), RecordingErrorKind::UnknownColumnName { available, .. } if available.len() == 100)
+    );
+    assert!(
+        message.contains("(5000 characters), `c1`, `c2`"),
+        "{message}"
+    );
+    assert!(message.contains(", `c19` and 80 more"), "{message}");
+    assert!(!message.contains("`c20`"), "{message}");
+    assert!(message.len() < error.path.display().to_string().len() + 400);
+
+    let bad_row = format!("x{}", vec![",1"; 99].concat());
+    let error = read_error(
+        "wide-bad.csv",
+        &format!("{header}\n{bad_row}\n"),
+        &ReaderOptions {
+            ts_s: Some(1.0),
+            ..ReaderOptions::new(ColumnMapping::new(
+                ColumnRef::Name(long_name),
+                ColumnRef::Name("c1".into()),
+            ))
+        },
+    );
+    let message = error.to_string();
+    assert_located(
+        &error,
+        2,
+        &format!(
+            "column 0 `{}…` (5000 characters)",
+            "n".repeat(EXCERPT_CHARS)
+        ),
+    );
+    assert!(
+        message.len() < error.path.display().to_string().len() + 200,
+        "{message}"
     );
 }
 

@@ -167,6 +167,7 @@ fn decimation_halves_the_sample_count() {
     let s = Signals {
         source: "ramp".to_owned(),
         ts_s: 1e-3,
+        y_unit_name: "quanta".to_owned(),
         u_v: (0..n).map(|k| (k as f64 * 0.1).sin()).collect(),
         y_q: (0..n).map(|k| k as f64).collect(),
         r_q: Some(vec![5.0; n]),
@@ -402,4 +403,86 @@ fn a_second_file_can_hold_the_validation_segment() {
         ModelSpec::PAPER.map(|s| s.name()),
         ["ARX1", "ARX2", "OE1", "OE2"]
     );
+}
+
+/// The header cells of the table's first line.
+fn table_columns(table: &str) -> Vec<String> {
+    let header = table.lines().next().unwrap();
+    header
+        .trim_matches('|')
+        .split(" | ")
+        .map(|c| c.trim().to_owned())
+        .collect()
+}
+
+/// A study of a recording (the twin's CSV read as a user's file): RMS figures are labelled with
+/// the unit the study used — the name given, else `y_unit` × the y column's unit, never "quanta"
+/// by default — and findings.md's reference columns, figures of a simulated sled, are absent from
+/// the table and the JSON. Catches a table that hard-codes "quanta" (Silverbox with
+/// `--y-unit 0.001` was labelled in quanta) and one that presents the twin's reference figures as
+/// the recording's own (issue 12).
+#[test]
+fn a_file_study_labels_its_unit_and_shows_no_twin_reference() {
+    use sledid_host::study::protocol::twin_input;
+    use sledid_host::study::run_files;
+    let (input, _) =
+        twin_input(1, 100, &scratch_dir("file-unit"), StudyOptions::default()).unwrap();
+    assert_eq!(input.y_unit, 1.6e-6, "the twin's quantum, m");
+    // Even the sensor quantum is not called "quanta" unless the user says so.
+    let unnamed = run_files(&sledid_host::study::StudyInput {
+        y_unit_name: None,
+        ..input.clone()
+    })
+    .unwrap();
+    let named = run_files(&sledid_host::study::StudyInput {
+        y_unit: 1e-3 * input.y_unit,
+        y_unit_name: Some("mV".to_owned()),
+        ..input
+    })
+    .unwrap();
+    for (study, unit) in [(&unnamed, "1.6e-6 × y-column unit"), (&named, "mV")] {
+        let table = study.table();
+        println!("{table}");
+        assert_eq!(study.y_unit_name, unit);
+        assert!(!table.contains("quanta"), "{table}");
+        assert!(
+            table.contains(&format!("| model (RMS in {unit}) |")),
+            "{table}"
+        );
+        assert!(
+            table.contains(&format!("RMS in {unit} over samples")),
+            "{table}"
+        );
+        assert!(!table.contains("findings"), "{table}");
+        assert_eq!(table_columns(&table).len(), 9, "{table}");
+        assert!(study.reference.iter().all(|r| {
+            r.findings_rms_sim_valid_ts.is_none() && r.findings_rms_sim_valid_dec2.is_none()
+        }));
+        let wiener = study.at_ts.nonlinear_model("Wiener1").unwrap();
+        assert_eq!(wiener.static_map.input, format!("linear output x ({unit})"));
+    }
+    // The same data in a 1000× smaller unit: every RMS 1000× larger (the label follows y_unit).
+    let oe1 = |s: &Study| s.at_ts.model("OE1").unwrap().rms_sim_valid;
+    assert!((oe1(&named) / oe1(&unnamed) - 1e3).abs() < 1e-6 * 1e3);
+    use sledid_host::study::data::y_unit_label;
+    assert_eq!(y_unit_label(0.001), "0.001 × y-column unit");
+    assert_eq!(y_unit_label(1.0), "y-column unit");
+}
+
+/// The twin's study: y_unit is the sensor quantum, so figures are in quanta, and findings.md's
+/// figures appear as the twin's reference columns (catches losing them for the twin).
+#[test]
+fn a_twin_study_is_in_quanta_with_its_reference_columns() {
+    let study = twin_study(1);
+    let table = study.table();
+    assert_eq!(study.y_unit_name, "quanta");
+    assert!(table.contains("| model (RMS in quanta) |"), "{table}");
+    let columns = table_columns(&table);
+    assert_eq!(columns.len(), 11, "{table}");
+    assert_eq!(columns[3], "twin's reference (findings.md) Ts");
+    assert!(
+        table.contains("| 6.38 | 1.01 |"),
+        "ARX1's findings figures: {table}"
+    );
+    assert!(table.contains("reference values for the twin, not figures of this run"));
 }

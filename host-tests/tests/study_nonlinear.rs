@@ -263,6 +263,7 @@ fn silverbox(valid: Segment) -> Study {
         columns: "u=V1,y=V2".to_owned(),
         ts_s: Some(1.0 / 610.35),
         y_unit: 1e-3,
+        y_unit_name: Some("mV".to_owned()),
         u_scale: 1.0,
         ident: Segment {
             start: 50_000,

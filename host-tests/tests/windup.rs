@@ -1,9 +1,14 @@
 //! Windup: 10⁶ samples of the sled twin holding a constant reference in its ±1-quantum limit cycle
 //! (closed loop, no excitation but the limit cycle), through the shared per-sample `step`.
 //!
-//! With λ < 1 and the anti-windup on (dead zone of one quantum + trace limit), P stays bounded, θ
-//! drifts less than 1 % from its value at the start of the dwell and no saturation occurs. The same
-//! data without anti-windup winds P up and drags θ around — so the test can fail.
+//! With λ < 1 and the anti-windup on (dead zone of one quantum + trace limit), P stays bounded and no
+//! saturation occurs on both loops; on the well-damped loop θ drifts less than 1 % from its value at
+//! the start of the dwell. The same data without anti-windup winds P up and drags θ around — so the
+//! tests can fail. Every figure is measured from the dwell's first sample.
+//!
+//! Finding (issue 12): on the paper's loop the one-quantum dead zone does not hold θ. Measured from
+//! the dwell's start, θ drifts 1.005 (bound 0.3): see
+//! [`on_the_paper_loop_the_dead_zone_holds_theta_from_the_dwell_start`], ignored with that reason.
 
 use sledid::ident::conditioning::Conditioning;
 use sledid::ident::linear::{LinearDesign, Structure};
@@ -15,6 +20,9 @@ use sledid_host::twin::{Twin, TwinParams};
 const DWELL_SAMPLES: usize = 1_000_000;
 
 struct Outcome {
+    /// Largest |r − y| over the dwell, quanta: ≤ 1 means the loop is in its ±1-quantum limit cycle
+    /// on every measured sample (no excitation but the limit cycle).
+    max_abs_error_q: f64,
     max_drift: f64,
     max_trace: f64,
     final_trace: f64,
@@ -25,19 +33,17 @@ struct Outcome {
     bounded: usize,
 }
 
-/// One seek to 800 tracks, then a dwell of [`DWELL_SAMPLES`] on `params`' loop; θ's drift is
-/// measured against its value `learn` samples into the dwell.
+/// One seek to 800 tracks, then a dwell of [`DWELL_SAMPLES`] on `params`' loop, measured from its
+/// first sample; θ's drift is measured against its value there (the seek's estimate).
 ///
 /// `TwinParams::well_damped()` (`host-tests/plants/well_damped.json`): its limit cycle hunts ±1 every
-/// ~12 samples, ~80,000 cycles in the dwell; RELIABILITY.md's table was measured on it. The default
-/// (the paper's loop) overshoots ~10 quanta and hunts every ~77 samples; with this seed the hunt
-/// ends at rest inside the target's quantum after ~10⁵ samples — the estimate at the start of the
-/// dwell is still the seek's, and the few updates the hunt drives (52, measured) move it by ~100 %
-/// before the dead zone holds it.
-fn run(mut params: TwinParams, rls: RlsDesign, learn: usize) -> Outcome {
+/// ~12 samples, ~80,000 cycles in the dwell. The default (the paper's loop) overshoots during the
+/// seek; in the dwell its ±1-quantum limit cycle changes sign every ~38 samples (|r − y| ≤ 1 on
+/// every dwell sample, measured).
+fn run(mut params: TwinParams, rls: RlsDesign) -> Outcome {
     params.reference.seek_count = 1;
     params.reference.targets_tracks = Some(vec![800]);
-    params.reference.dwell_s = ((DWELL_SAMPLES + learn) as f64 + 2_000.0) * params.plant.ts_s;
+    params.reference.dwell_s = (DWELL_SAMPLES as f64 + 2_000.0) * params.plant.ts_s;
     let mut twin = Twin::new(params.clone(), 3).expect("twin");
     let mut pid = twin.baseline_controller();
     let scaling = Scaling::new(params.plant.quantum_m, params.plant.u_max_v).expect("scaling");
@@ -51,6 +57,7 @@ fn run(mut params: TwinParams, rls: RlsDesign, learn: usize) -> Outcome {
     let dwell_start = (0.3 / params.plant.ts_s) as usize;
     let mut theta_ref: Option<Vec<f64>> = None;
     let mut out = Outcome {
+        max_abs_error_q: 0.0,
         max_drift: 0.0,
         max_trace: 0.0,
         final_trace: 0.0,
@@ -65,9 +72,11 @@ fn run(mut params: TwinParams, rls: RlsDesign, learn: usize) -> Outcome {
         let sample = scaling.sample(s.y_m, s.u_v, s.r_m).expect("in range");
         let o = step(&cfg, &mut st, &sample);
         n += 1;
-        if n < dwell_start + learn {
+        if n < dwell_start {
             continue;
         }
+        let error_q = (s.r_m - s.y_m) / params.plant.quantum_m;
+        out.max_abs_error_q = out.max_abs_error_q.max(error_q.abs());
         let theta: Vec<f64> = o.theta.iter().map(|p| p.to_f64()).collect();
         let reference = theta_ref.get_or_insert_with(|| theta.clone());
         let num: f64 = theta
@@ -86,12 +95,12 @@ fn run(mut params: TwinParams, rls: RlsDesign, learn: usize) -> Outcome {
         out.cov_saturated += usize::from(o.status.contains(Status::COVARIANCE_SATURATED));
         out.dead_zone += usize::from(o.status.contains(Status::DEAD_ZONE));
         out.bounded += usize::from(o.status.contains(Status::COVARIANCE_BOUNDED));
-        if n >= dwell_start + learn + DWELL_SAMPLES {
+        if n >= dwell_start + DWELL_SAMPLES {
             break;
         }
     }
     assert!(
-        n >= dwell_start + learn + DWELL_SAMPLES,
+        n >= dwell_start + DWELL_SAMPLES,
         "twin ended early after {n} samples"
     );
     out
@@ -119,7 +128,8 @@ fn naked_design() -> RlsDesign {
 
 fn print(name: &str, o: &Outcome) {
     println!(
-        "{name:<22} max θ drift {:.3e}  max trace(P) {:.3e}  final {:.3e}  updates {}  bounded {}  dead-zone skips {}  saturated {}  cov-saturated {}",
+        "{name:<22} max |r − y| {:.2} q  max θ drift {:.3e}  max trace(P) {:.3e}  final {:.3e}  updates {}  bounded {}  dead-zone skips {}  saturated {}  cov-saturated {}",
+        o.max_abs_error_q,
         o.max_drift,
         o.max_trace,
         o.final_trace,
@@ -131,24 +141,25 @@ fn print(name: &str, o: &Outcome) {
     );
 }
 
+/// The paper's loop from the dwell's first sample (issue 12: this test used to start 10⁵ samples
+/// into the dwell, after the drift). The loop is in its ±1-quantum limit cycle on every dwell
+/// sample (asserted). With the dead zone + trace limit P stays bounded (measured: max trace 21.7)
+/// and nothing saturates; without anti-windup the same data update θ on every sample and wind P up
+/// beyond f64 — a trace limit that stopped acting would trip the first bound, a kernel that let P
+/// grow unchecked the comparison.
 #[test]
-fn on_the_paper_loop_the_dead_zone_holds_theta_once_the_hunt_is_learnt() {
-    // The paper's loop: the slow hunt after the overshoot still teaches the model (measured: 52
-    // updates in the dwell's first 10⁵ samples, θ moves ~100 % from the seek's estimate). From there
-    // on, over 10⁶ samples: only the hunt's last pulses get past the dead zone (4 updates, moving
-    // θ by 22 % — b is barely identifiable below breakaway, each pulse is real information), then
-    // the sled rests in the target's quantum and nothing moves θ; P stays bounded. Without
-    // anti-windup the same data update θ on every sample and wind P up to the format's limit.
-    let learn = 100_000;
-    let guarded = run(TwinParams::default(), guarded_design(), learn);
-    let naked = run(TwinParams::default(), naked_design(), learn);
+fn on_the_paper_loop_anti_windup_keeps_p_bounded_from_the_dwell_start() {
+    let guarded = run(TwinParams::default(), guarded_design());
+    let naked = run(TwinParams::default(), naked_design());
     print("paper loop, guarded", &guarded);
     print("paper loop, none", &naked);
-    assert!(guarded.max_drift < 0.3, "θ drifted {}", guarded.max_drift);
+    assert!(
+        guarded.max_abs_error_q <= 1.0 + 1e-9,
+        "not a ±1 limit cycle"
+    );
     assert!(guarded.max_trace <= 100.0 * (1.0 + 1e-6));
-    assert!(guarded.updates <= 10, "{} updates", guarded.updates);
-    assert!(naked.updates > 900_000 && naked.max_drift > 3.0 * guarded.max_drift);
     assert_eq!(guarded.saturated + guarded.cov_saturated, 0);
+    assert!(naked.updates > 900_000);
     assert!(
         naked.max_trace > 1e6 * guarded.max_trace.max(1e-9),
         "without anti-windup trace(P) reached only {}",
@@ -156,9 +167,53 @@ fn on_the_paper_loop_the_dead_zone_holds_theta_once_the_hunt_is_learnt() {
     );
 }
 
+/// Finding (issue 12), measured from the dwell's first sample: the one-quantum dead zone does not
+/// hold θ on the paper's loop. Each ±1-quantum step of the limit cycle leaves a prediction error of
+/// 1.00–1.09 quanta — just past the dead zone — and updates θ: 36 updates in the first 873 samples
+/// walk b₁ from −7.58 (the seek's estimate) to +0.06, through zero, then 16 more over the rest of
+/// the 10⁶ samples keep it there. Max θ drift 1.005 (bound 0.3), 52 updates (bound 10); without
+/// anti-windup 1.73. (Started 10⁵ samples in, as it was, the test saw 4 updates and 0.22.)
+/// Measured with other dead zones on the same data (θ drift, updates): 1.1 q 0.37, 13; 1.25 q
+/// 0.089, 3; 1.5 q 0, 0 (`a_dead_zone_of_one_and_a_half_quanta_holds_theta_on_both_loops`).
+/// The bound is kept; the test is ignored until the design changes:
+/// `cargo test -p sledid-host --test windup -- --ignored --nocapture` shows the failure.
+#[test]
+#[ignore = "finding (issue 12): from the dwell's start θ drifts 1.005 with 52 updates (bounds 0.3, 10); see its doc"]
+fn on_the_paper_loop_the_dead_zone_holds_theta_from_the_dwell_start() {
+    let guarded = run(TwinParams::default(), guarded_design());
+    let naked = run(TwinParams::default(), naked_design());
+    print("paper loop, guarded", &guarded);
+    print("paper loop, none", &naked);
+    assert!(guarded.max_drift < 0.3, "θ drifted {}", guarded.max_drift);
+    assert!(guarded.updates <= 10, "{} updates", guarded.updates);
+    assert!(naked.max_drift > 3.0 * guarded.max_drift);
+}
+
+/// What the finding above measured as the way out: a dead zone of 1.5 quanta (above the limit
+/// cycle's 1.00–1.09-quantum prediction errors) lets no update through on either loop from the
+/// dwell's start — θ does not move at all — while P stays bounded. Trips if the limit cycle's
+/// prediction errors grow past 1.5 quanta or the dead zone stops gating.
+#[test]
+fn a_dead_zone_of_one_and_a_half_quanta_holds_theta_on_both_loops() {
+    let wider = RlsDesign {
+        dead_zone: 1.5,
+        ..guarded_design()
+    };
+    for (name, params) in [
+        ("paper loop, dead zone 1.5 q", TwinParams::default()),
+        ("well-damped, dead zone 1.5 q", TwinParams::well_damped()),
+    ] {
+        let o = run(params, wider);
+        print(name, &o);
+        assert_eq!(o.updates, 0, "{name}");
+        assert_eq!(o.max_drift, 0.0, "{name}");
+        assert!(o.max_trace <= 100.0 * (1.0 + 1e-6), "{name}");
+    }
+}
+
 #[test]
 fn anti_windup_keeps_p_bounded_and_theta_still_over_a_million_limit_cycle_samples() {
-    let guarded = run(TwinParams::well_damped(), guarded_design(), 0);
+    let guarded = run(TwinParams::well_damped(), guarded_design());
     // Trace limit alone (the limit cycle does drive updates): the bound must act on every sample.
     let trace_only = run(
         TwinParams::well_damped(),
@@ -168,9 +223,8 @@ fn anti_windup_keeps_p_bounded_and_theta_still_over_a_million_limit_cycle_sample
             anti_windup: AntiWindup::TraceLimit { max: 1.0 },
             ..RlsDesign::default()
         },
-        0,
     );
-    let naked = run(TwinParams::well_damped(), naked_design(), 0);
+    let naked = run(TwinParams::well_damped(), naked_design());
     for (name, o) in [
         ("dead zone + trace≤100", &guarded),
         ("trace≤1 only", &trace_only),

@@ -1,7 +1,39 @@
 //! Typed errors of the recording reader, each located by file, 1-based line and column.
+//!
+//! Text taken from the file (a field, a header name) keeps its whole value in the error, but is
+//! quoted in messages as a bounded excerpt ([`Excerpt`]): a 5,000-digit field or a 10,000-column
+//! header does not flood the terminal, and the message still names file, line and column.
 
 use std::fmt;
 use std::path::PathBuf;
+
+/// Characters of a file's text quoted whole in a message; longer text is cut to this many.
+pub const EXCERPT_CHARS: usize = 40;
+
+/// Header names listed in an [`RecordingErrorKind::UnknownColumnName`] message before the rest are
+/// counted.
+pub const LISTED_NAMES: usize = 20;
+
+/// Text from the file as a message quotes it: whole up to [`EXCERPT_CHARS`] characters, else its
+/// first [`EXCERPT_CHARS`] characters, `…` and the full length, e.g. ``123456…` (5000 characters)`.
+///
+/// Displays inside backticks. Cuts at a character boundary, never inside a UTF-8 sequence.
+#[derive(Debug, Clone, Copy)]
+pub struct Excerpt<'a>(pub &'a str);
+
+impl fmt::Display for Excerpt<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0.char_indices().nth(EXCERPT_CHARS) {
+            None => write!(f, "`{}`", self.0),
+            Some((cut, _)) => write!(
+                f,
+                "`{}…` ({} characters)",
+                &self.0[..cut],
+                self.0.chars().count()
+            ),
+        }
+    }
+}
 
 /// A column of the recording, named where the file has a header.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -15,7 +47,7 @@ pub struct ColumnLocation {
 impl fmt::Display for ColumnLocation {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.name {
-            Some(name) => write!(f, "column {} `{name}`", self.index),
+            Some(name) => write!(f, "column {} {}", self.index, Excerpt(name)),
             None => write!(f, "column {}", self.index),
         }
     }
@@ -121,8 +153,10 @@ impl fmt::Display for RecordingErrorKind {
             K::BlankLine => {
                 f.write_str("blank line inside the data (only trailing blank lines are allowed)")
             }
-            K::NonNumeric { text } => write!(f, "non-numeric field `{text}`"),
-            K::NonFinite { text } => write!(f, "non-finite value `{text}` (NaN or infinite)"),
+            K::NonNumeric { text } => write!(f, "non-numeric field {}", Excerpt(text)),
+            K::NonFinite { text } => {
+                write!(f, "non-finite value {} (NaN or infinite)", Excerpt(text))
+            }
             K::MissingField => f.write_str("missing (empty) field"),
             K::WrongFieldCount { expected, found } => {
                 write!(
@@ -146,18 +180,21 @@ impl fmt::Display for RecordingErrorKind {
                 "time gap: step {step_s} s exceeds {gap_factor} × Ts = {} s (Ts = {ts_s} s)",
                 gap_factor * ts_s
             ),
-            K::UnknownColumnName { name, available } => write!(
-                f,
-                "unknown column name `{name}`; available: {}",
-                available
-                    .iter()
-                    .map(|n| format!("`{n}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
+            K::UnknownColumnName { name, available } => {
+                write!(f, "unknown column name {}; available: ", Excerpt(name))?;
+                for (i, n) in available.iter().take(LISTED_NAMES).enumerate() {
+                    let separator = if i == 0 { "" } else { ", " };
+                    write!(f, "{separator}{}", Excerpt(n))?;
+                }
+                match available.len().saturating_sub(LISTED_NAMES) {
+                    0 => Ok(()),
+                    more => write!(f, " and {more} more"),
+                }
+            }
             K::ColumnNameWithoutHeader { name, column_count } => write!(
                 f,
-                "column `{name}` addressed by name but the file has no header; use a 0-based index 0..{column_count}"
+                "column {} addressed by name but the file has no header; use a 0-based index 0..{column_count}",
+                Excerpt(name)
             ),
             K::ColumnIndexOutOfRange {
                 index,

@@ -42,7 +42,11 @@ pub enum HeaderMode {
     Absent,
 }
 
-/// Reads physical lines, numbering them from 1, and enforces "blank lines only at the end".
+/// U+FEFF, which spreadsheet programs write at the start of a UTF-8 file ("UTF-8 with BOM").
+const BYTE_ORDER_MARK: char = '\u{feff}';
+
+/// Reads physical lines, numbering them from 1, drops a byte-order mark at the start of the file and
+/// enforces "blank lines only at the end".
 #[derive(Debug)]
 pub(crate) struct LineSource<R> {
     reader: R,
@@ -75,6 +79,9 @@ impl<R: BufRead> LineSource<R> {
                 return Ok(None);
             }
             self.line_number += 1;
+            if self.line_number == 1 && self.buffer.starts_with(BYTE_ORDER_MARK) {
+                self.buffer.drain(..BYTE_ORDER_MARK.len_utf8());
+            }
             if !self.text().trim().is_empty() {
                 return match first_blank {
                     Some(blank) => Err((blank, RecordingErrorKind::BlankLine)),

@@ -92,23 +92,42 @@ impl FromStr for Centring {
     }
 }
 
-/// A recording in the study's units: y in quanta, u in volts, r in quanta.
+/// The name of the study's y unit when none is given: `y / y_unit` is in units of `y_unit` × the
+/// y column's unit, e.g. `0.001 × y-column unit`, `1.6e-6 × y-column unit`. It is the sensor's
+/// quantum only if `y_unit` is that quantum, which the study cannot know, so it never says
+/// "quanta" by itself.
+pub fn y_unit_label(y_unit: f64) -> String {
+    if y_unit == 1.0 {
+        "y-column unit".to_owned()
+    } else if (1e-3..1e4).contains(&y_unit.abs()) {
+        format!("{y_unit} × y-column unit")
+    } else {
+        format!("{y_unit:e} × y-column unit")
+    }
+}
+
+/// A recording in the study's units: y and r in [`Signals::y_unit_name`] (`y / y_unit`; quanta
+/// when `y_unit` is the sensor quantum, as on the twin), u in volts. Fields named `_q` hold y-unit
+/// values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Signals {
     /// Where it came from.
     pub source: String,
     /// Sampling period, s.
     pub ts_s: f64,
+    /// The unit of y and r, as tables and plots name it (`quanta`, `mV`, [`y_unit_label`]).
+    pub y_unit_name: String,
     /// Input, V.
     pub u_v: Vec<f64>,
-    /// Output, quanta.
+    /// Output, y unit.
     pub y_q: Vec<f64>,
-    /// Reference, quanta, if mapped.
+    /// Reference, y unit, if mapped.
     pub r_q: Option<Vec<f64>>,
 }
 
 impl Signals {
-    /// From a recording read with unit scales: `y / y_unit`, `u · u_scale`, `r / y_unit`.
+    /// From a recording read with unit scales: `y / y_unit`, `u · u_scale`, `r / y_unit`; the y
+    /// unit named by [`y_unit_label`].
     pub fn from_recording(rec: &Recording, y_unit: f64, u_scale: f64) -> Self {
         let s = &rec.samples;
         let r_q = s
@@ -119,6 +138,7 @@ impl Signals {
         Self {
             source: rec.meta.path.display().to_string(),
             ts_s: rec.meta.ts_s,
+            y_unit_name: y_unit_label(y_unit),
             u_v: s.iter().map(|x| x.u * u_scale).collect(),
             y_q: s.iter().map(|x| x.y / y_unit).collect(),
             r_q,
@@ -131,6 +151,7 @@ impl Signals {
         Self {
             source: format!("{} (÷2)", self.source),
             ts_s: 2.0 * self.ts_s,
+            y_unit_name: self.y_unit_name.clone(),
             u_v: run(&self.u_v),
             y_q: run(&self.y_q),
             r_q: self.r_q.as_deref().map(run),
@@ -173,6 +194,7 @@ impl Signals {
         let r = seg.start..seg.end;
         Dataset {
             ts_s: self.ts_s,
+            y_unit_name: self.y_unit_name.clone(),
             segment: seg,
             centre_q,
             u: self.u_v[r.clone()].to_vec(),
@@ -190,14 +212,16 @@ impl Signals {
 pub struct Dataset {
     /// Sampling period, s.
     pub ts_s: f64,
+    /// The unit of y and r ([`Signals::y_unit_name`]).
+    pub y_unit_name: String,
     /// Where it sits in its (possibly decimated) recording.
     pub segment: Segment,
-    /// The value subtracted from y and r, quanta.
+    /// The value subtracted from y and r, y unit.
     pub centre_q: f64,
     /// Input, V.
     pub u: Vec<f64>,
-    /// Centred output, quanta.
+    /// Centred output, y unit.
     pub y: Vec<f64>,
-    /// Centred reference, quanta.
+    /// Centred reference, y unit.
     pub r: Option<Vec<f64>>,
 }

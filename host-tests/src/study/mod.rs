@@ -1,7 +1,10 @@
 //! `sledid study`: the paper's identification procedure (Sections 3–5) on any recording, in f64.
 //!
 //! # Procedure
-//! 1. Signals as in the paper: y in sensor quanta (`y / y_unit`), u in volts (`u · u_scale`).
+//! 1. Signals as in the paper: y in sensor quanta (`y / y_unit`, with `y_unit` the quantum), u in
+//!    volts (`u · u_scale`). Any other `y_unit` is allowed; tables and plots then name the unit
+//!    `y_unit` × the y column's unit, or the name given ([`StudyInput::y_unit_name`]).
+//!    findings.md's reference figures are shown only for the twin ([`report::ReferenceFigure`]).
 //! 2. An identification segment A:B and a validation segment C:D (sample indices, end exclusive),
 //!    the latter possibly from a second recording. Both are centred (below).
 //! 3. ARX1, ARX2 (eq. 1) by least squares; OE1, OE2 (eq. 2) by Levenberg–Marquardt on the
@@ -183,8 +186,12 @@ pub struct StudyInput {
     pub columns: String,
     /// Sampling period when there is no time column, s.
     pub ts_s: Option<f64>,
-    /// The sensor quantum in the y column's unit (y is divided by it).
+    /// The y unit in the y column's unit (y is divided by it): the sensor quantum for figures in
+    /// quanta, as in the paper.
     pub y_unit: f64,
+    /// The y unit's name in tables and plots (`quanta`, `mV`); `None`: `y_unit` × the y column's
+    /// unit ([`data::y_unit_label`]).
+    pub y_unit_name: Option<String>,
     /// Factor from the u column to volts.
     pub u_scale: f64,
     /// Identification segment.
@@ -214,7 +221,13 @@ pub fn run_files(input: &StudyInput) -> Result<Study, StudyError> {
     reader.ts_s = input.ts_s;
     let read = |p: &Path| {
         read_all(p, &reader)
-            .map(|rec| Signals::from_recording(&rec, input.y_unit, input.u_scale))
+            .map(|rec| {
+                let mut signals = Signals::from_recording(&rec, input.y_unit, input.u_scale);
+                if let Some(name) = &input.y_unit_name {
+                    signals.y_unit_name.clone_from(name);
+                }
+                signals
+            })
             .map_err(StudyError::Recording)
     };
     let ident = read(&input.ident_file)?;
@@ -362,6 +375,7 @@ pub fn run(
         valid_source: valid.source.clone(),
         ts_s: ident.ts_s,
         y_unit: 1.0,
+        y_unit_name: ident.y_unit_name.clone(),
         u_scale: 1.0,
         centring: how,
         ident_segment: ident_seg,
@@ -370,7 +384,7 @@ pub fn run(
         twin: None,
         at_ts,
         decimated_by_2: dec,
-        reference: report::reference_figures(),
+        reference: report::reference_figures(false),
         notes,
         plots: Vec::new(),
     })

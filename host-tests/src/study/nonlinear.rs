@@ -211,14 +211,23 @@ fn min_max(v: &[f64]) -> [f64; 2] {
 fn map_of(s: NonlinearStructure, theta: &[f64], linear: &[f64], ident: &Dataset) -> StaticMap {
     let na = s.na();
     let x_state = states(s, theta, &ident.y, &ident.u);
-    let (arg, input, output): (Vec<f64>, &str, &str) = match s {
-        NonlinearStructure::Wiener => (x_state, "linear output x (quanta)", "ŷ = x + g(x)"),
+    let unit = &ident.y_unit_name;
+    let (arg, input, output): (Vec<f64>, String, String) = match s {
+        NonlinearStructure::Wiener => (
+            x_state,
+            format!("linear output x ({unit})"),
+            "ŷ = x + g(x)".to_owned(),
+        ),
         NonlinearStructure::FrictionFeedback => (
             x_state.windows(2).map(|w| w[1] - w[0]).collect(),
-            "simulated velocity s(t−1) − s(t−2) (quanta/sample)",
-            "g(v) (quanta)",
+            format!("simulated velocity s(t−1) − s(t−2) ({unit}/sample)"),
+            format!("g(v) ({unit})"),
         ),
-        _ => (ident.u.clone(), "u(t−1) (V)", "b1·u + g(·) (quanta)"),
+        _ => (
+            ident.u.clone(),
+            "u(t−1) (V)".to_owned(),
+            format!("b1·u + g(·) ({unit})"),
+        ),
     };
     let data_range = min_max(&arg);
     let pad = 0.1 * (data_range[1] - data_range[0]).max(1e-9);
@@ -258,8 +267,8 @@ fn map_of(s: NonlinearStructure, theta: &[f64], linear: &[f64], ident: &Dataset)
         }]
     };
     StaticMap {
-        input: input.to_owned(),
-        output: output.to_owned(),
+        input,
+        output,
         x,
         linear: MapCurve {
             label: lin_label.to_owned(),

@@ -124,6 +124,7 @@ pub fn twin_input_with(
         columns: TWIN_COLUMNS.to_owned(),
         ts_s: None,
         y_unit: twin.params().plant.quantum_m,
+        y_unit_name: Some("quanta".to_owned()),
         u_scale: 1.0,
         ident: ident.segment,
         valid: valid.segment,
@@ -165,5 +166,6 @@ pub fn run_twin_with(
          ±1-quantum limit cycle (the paper's window is mostly decaying oscillation)"
     ));
     study.twin = Some(protocol);
+    study.reference = super::report::reference_figures(true);
     Ok(study)
 }

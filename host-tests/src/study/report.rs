@@ -74,13 +74,13 @@ pub struct ModelReport {
     pub overfit_risk: bool,
     /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` of the fit's criterion.
     pub fpe: f64,
-    /// Simulation RMS on the identification segment, quanta.
+    /// Simulation RMS on the identification segment, y unit ([`Study::y_unit_name`]).
     pub rms_sim_ident: f64,
-    /// Simulation RMS on the validation segment, quanta.
+    /// Simulation RMS on the validation segment, y unit.
     pub rms_sim_valid: f64,
-    /// One-step prediction RMS on the identification segment, quanta.
+    /// One-step prediction RMS on the identification segment, y unit.
     pub rms_pred_ident: f64,
-    /// One-step prediction RMS on the validation segment, quanta.
+    /// One-step prediction RMS on the validation segment, y unit.
     pub rms_pred_valid: f64,
     /// The search.
     pub fit: FitReport,
@@ -174,9 +174,9 @@ pub struct RateReport {
     pub samples_ident: usize,
     /// Validation samples.
     pub samples_valid: usize,
-    /// Value subtracted from the identification y (and r), quanta.
+    /// Value subtracted from the identification y (and r), y unit.
     pub centre_ident_q: f64,
-    /// Value subtracted from the validation y (and r), quanta.
+    /// Value subtracted from the validation y (and r), y unit.
     pub centre_valid_q: f64,
     /// ARX1, ARX2, OE1, OE2.
     pub models: Vec<ModelReport>,
@@ -293,12 +293,17 @@ pub(super) fn rate_report(
     })
 }
 
-/// A model's figures from the paper and from `shared/findings.md`, for comparison.
+/// A model's figures from the paper and, for a twin study, from `shared/findings.md`.
+///
+/// The findings figures belong to a simulated sled (a float64 study of a friction-dominated one):
+/// reference values for the twin, never for a user's recording, whose study leaves them `None`
+/// ([`reference_figures`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ReferenceFigure {
     /// Model name.
     pub model: &'static str,
-    /// findings.md: validation simulation RMS at Ts, quanta (friction-dominated simulated sled).
+    /// findings.md: validation simulation RMS at Ts, quanta (friction-dominated simulated sled);
+    /// `None` unless the study is of the twin.
     pub findings_rms_sim_valid_ts: Option<f64>,
     /// findings.md: the same after ÷2.
     pub findings_rms_sim_valid_dec2: Option<f64>,
@@ -306,12 +311,13 @@ pub struct ReferenceFigure {
     pub paper: &'static str,
 }
 
-/// The reference figures of the linear and nonlinear models.
-pub fn reference_figures() -> Vec<ReferenceFigure> {
-    let f = |model, ts, dec2, paper| ReferenceFigure {
+/// The reference figures of the linear and nonlinear models: the paper's always, findings.md's
+/// only `with_findings` (a twin study; see [`ReferenceFigure`]).
+pub fn reference_figures(with_findings: bool) -> Vec<ReferenceFigure> {
+    let f = |model, ts: Option<f64>, dec2: Option<f64>, paper| ReferenceFigure {
         model,
-        findings_rms_sim_valid_ts: ts,
-        findings_rms_sim_valid_dec2: dec2,
+        findings_rms_sim_valid_ts: ts.filter(|_| with_findings),
+        findings_rms_sim_valid_dec2: dec2.filter(|_| with_findings),
         paper,
     };
     vec![
@@ -373,8 +379,12 @@ pub struct Study {
     pub valid_source: String,
     /// Sampling period of the recording, s.
     pub ts_s: f64,
-    /// The y column's unit per quantum.
+    /// The y column's value of one y unit (y is divided by it).
     pub y_unit: f64,
+    /// What y and every RMS figure are in: `quanta` on the twin (`y_unit` is its sensor quantum),
+    /// the name the user gave (`--y-unit-name`), else `y_unit` × the y column's unit
+    /// ([`super::data::y_unit_label`]).
+    pub y_unit_name: String,
     /// Factor from the u column to volts.
     pub u_scale: f64,
     /// The centring rule applied.
@@ -391,7 +401,7 @@ pub struct Study {
     pub at_ts: RateReport,
     /// The four models after ÷2.
     pub decimated_by_2: RateReport,
-    /// Reference figures (paper, findings.md).
+    /// Reference figures: the paper's; findings.md's only for the twin.
     pub reference: Vec<ReferenceFigure>,
     /// Caveats found while running.
     pub notes: Vec<String>,

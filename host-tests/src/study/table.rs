@@ -1,6 +1,11 @@
 //! The study's compact comparison table (Markdown) and its header, printed by `sledid study` and
 //! `sledid demo`: the linear models, then the nonlinear ones with their change against their
 //! linear counterpart and the paper's 9 % / 13 % beside.
+//!
+//! RMS figures are labelled with the study's y unit ([`Study::y_unit_name`]: quanta only on the
+//! twin or when the user names it so). The findings.md columns — reference figures of a simulated
+//! sled — appear only when the study carries them, i.e. for the twin; a study of a user's
+//! recording has no such columns.
 
 use std::fmt::Write as _;
 
@@ -106,10 +111,20 @@ impl Study {
     pub fn table(&self) -> String {
         let num = |x: Option<f64>| x.map_or_else(|| "–".to_owned(), |v| format!("{v:.2}"));
         let pred = |x: Option<f64>| x.map_or_else(|| "= sim".to_owned(), |v| format!("{v:.2}"));
-        let mut t = String::from(
-            "| model | sim RMS valid, Ts | sim RMS valid, ÷2 | findings Ts | findings ÷2 \
+        let findings = self.reference.iter().any(|r| {
+            r.findings_rms_sim_valid_ts.is_some() || r.findings_rms_sim_valid_dec2.is_some()
+        });
+        let unit = &self.y_unit_name;
+        let mut t = format!(
+            "| model (RMS in {unit}) | sim RMS valid, Ts | sim RMS valid, ÷2 {}\
              | pred RMS valid, Ts | pred RMS valid, ÷2 | sim RMS ident, Ts | poles at Ts | d / N (Ts, ÷2) | paper |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|\n",
+             |---|---|---|{}---|---|---|---|---|---|\n",
+            if findings {
+                "| twin's reference (findings.md) Ts | twin's reference (findings.md) ÷2 "
+            } else {
+                ""
+            },
+            if findings { "---|---|" } else { "" },
         );
         for r in &self.reference {
             let (Some(a), Some(b)) = (
@@ -131,14 +146,22 @@ impl Study {
                 })
                 .collect();
             let flag = |r: &Row| if r.overfit { "§" } else { "" };
+            let reference = if findings {
+                format!(
+                    " {} | {} |",
+                    num(r.findings_rms_sim_valid_ts),
+                    num(r.findings_rms_sim_valid_dec2)
+                )
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 t,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {}/{}{}, {}/{}{} | {} |",
+                "| {} | {} | {} |{} {} | {} | {} | {} | {}/{}{}, {}/{}{} | {} |",
                 r.model,
                 a.rms(a.rms_valid),
                 b.rms(b.rms_valid),
-                num(r.findings_rms_sim_valid_ts),
-                num(r.findings_rms_sim_valid_dec2),
+                reference,
                 pred(a.pred_valid),
                 pred(b.pred_valid),
                 a.rms(a.rms_ident),
@@ -152,14 +175,22 @@ impl Study {
                 r.paper
             );
         }
-        t.push_str(
-            "\nRMS in quanta over samples 2..N of each segment; (±x %): a nonlinear model's \
+        let _ = write!(
+            t,
+            "\nRMS in {unit} over samples 2..N of each segment; (±x %): a nonlinear model's \
              validation RMS against its linear start (OE1 for NOE-Hammerstein1, NOE1-yu, Wiener1; \
              OE2 for NOE221, Friction2); the paper: −9 % (eq. 5 vs OE1), −13 % (eq. 7 vs OE2). \
              † unstable model: its simulation diverges. ‡ a pole at |p| > 0.999 (on the stability \
-             constraint). § fewer than 10 identification samples per parameter: may fit noise. \
-             findings: shared/findings.md (float64 study of a simulated friction-dominated sled).\n",
+             constraint). § fewer than 10 identification samples per parameter: may fit noise."
         );
+        if findings {
+            t.push_str(
+                " twin's reference: shared/findings.md, validation simulation RMS in quanta of a \
+                 float64 study of a simulated friction-dominated sled — reference values for the \
+                 twin, not figures of this run.",
+            );
+        }
+        t.push('\n');
         t
     }
 }

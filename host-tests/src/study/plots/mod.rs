@@ -5,7 +5,7 @@
 //!
 //! | file | paper | panels (rows: Ts, 2·Ts) |
 //! |---|---|---|
-//! | `fig5_ident_data.png` | Fig. 5, 9 | identification data in time (y, r in quanta; u in V, right axis) and frequency (periodograms) |
+//! | `fig5_ident_data.png` | Fig. 5, 9 | identification data in time (y, r in the study's y unit — quanta on the twin; u in V, right axis) and frequency (periodograms) |
 //! | `fig6_simulation.png` | Fig. 6, 10, 11a | measured vs simulated y on the validation segment, per model |
 //! | `fig7_xcorr.png` | Fig. 7, 18 | residual–input cross-correlation on the validation segment with 99 % bounds |
 //! | `fig8_criterion.png` | Fig. 8 | log10 V_N over (pole, b1) for ARX1 and OE1, both minima marked |
@@ -77,14 +77,14 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
         (
             "fig5_ident_data.png",
             "5, 9",
-            "identification segment; left: y and r (centred, quanta) and u (V, right axis) vs time from the segment's start; right: periodograms of u and y (dB) vs frequency (Hz); top row Ts, bottom row 2·Ts",
+            "identification segment; left: y and r (centred, {y unit}) and u (V, right axis) vs time from the segment's start; right: periodograms of u and y (dB) vs frequency (Hz); top row Ts, bottom row 2·Ts",
             2,
             data_panels,
         ),
         (
             "fig6_simulation.png",
             "6, 10, 11a",
-            "validation segment: measured y (black) and simulated y (red), quanta vs time from the segment's start; RMS over samples 2..N in the title; simulations beyond the axes are clipped; top row Ts, bottom row 2·Ts",
+            "validation segment: measured y (black) and simulated y (red), {y unit} vs time from the segment's start; RMS over samples 2..N in the title; simulations beyond the axes are clipped; top row Ts, bottom row 2·Ts",
             4,
             simulation_panels,
         ),
@@ -112,7 +112,7 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
         (
             "fig13_nonlinear_simulation.png",
             "13a, 14b, 17a",
-            "validation segment: measured y (black) and the simulated y (red) of each nonlinear model, quanta vs time; title: validation RMS and its change against the linear start (OE1 or OE2); top row Ts, bottom row 2·Ts",
+            "validation segment: measured y (black) and the simulated y (red) of each nonlinear model, {y unit} vs time; title: validation RMS and its change against the linear start (OE1 or OE2); top row Ts, bottom row 2·Ts",
             5,
             nonlinear::simulation_panels,
         ),
@@ -152,7 +152,7 @@ pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError>
         infos.push(PlotInfo {
             file: file.to_owned(),
             paper_figure: fig.to_owned(),
-            description: description.to_owned(),
+            description: description.replace("{y unit}", &study.y_unit_name),
         });
     }
     Ok(infos)

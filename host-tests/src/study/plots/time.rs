@@ -28,7 +28,7 @@ pub(super) fn data_panels(area: &Area, rate: &RateReport) -> Drawn {
     c.configure_mesh()
         .x_desc(t_label)
         .x_labels(6)
-        .y_desc("y, r (quanta)")
+        .y_desc(format!("y, r ({})", d.y_unit_name))
         .label_style((FONT, 13))
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
@@ -78,7 +78,8 @@ pub(super) fn data_panels(area: &Area, rate: &RateReport) -> Drawn {
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
         .draw()?;
-    for (p, colour, name) in [(pu, INPUT, "u (V²)"), (py, MEASURED, "y (quanta²)")] {
+    let y_power = format!("y ({}²)", d.y_unit_name);
+    for (p, colour, name) in [(pu, INPUT, "u (V²)"), (py, MEASURED, y_power.as_str())] {
         c.draw_series(LineSeries::new(
             p.freq_hz.iter().copied().zip(p.power_db.iter().copied()),
             colour.stroke_width(2),
@@ -145,7 +146,7 @@ pub(super) fn sim_panel(panel: &Area, d: &Dataset, title: String, sim: &[f64]) -
     c.configure_mesh()
         .x_desc(t_label)
         .x_labels(6)
-        .y_desc("y (quanta)")
+        .y_desc(format!("y ({})", d.y_unit_name))
         .label_style((FONT, 13))
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
