@@ -134,6 +134,8 @@ pub enum ConfigError {
     WordsVersion(u32),
     /// Configuration words whose CRC-32 does not match: corrupted in storage or transfer.
     WordsChecksum,
+    /// Servo: the identifier's speed gate (quanta per sample) negative, not finite or out of range.
+    IdentifySpeed(f64),
     /// Servo: the redesign hand-over latency L (samples from a request to its adoption) must be ≥ 1.
     HandoverLatency(u16),
 }
@@ -239,6 +241,10 @@ impl fmt::Display for ConfigError {
                 "configuration words of format {v:#010x}: not the format this build reads"
             ),
             Self::WordsChecksum => write!(f, "configuration words: the CRC-32 does not match"),
+            Self::IdentifySpeed(v) => write!(
+                f,
+                "identification speed gate = {v} quanta per sample: must be finite, ≥ 0 and below 32,768"
+            ),
             Self::HandoverLatency(l) => write!(
                 f,
                 "redesign hand-over latency = {l} samples: must be at least 1"

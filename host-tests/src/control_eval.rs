@@ -27,7 +27,7 @@ use sledid::control::{ControlFlags, InverseInputMap, Redesign, Region, Scheduled
 use sledid::ident::estimator::Estimate;
 use sledid::ident::nonlinear::NonlinearDesign;
 use sledid::ident::step::IdentifierDesign;
-use sledid::servo::{ServoDesign, SledServo, SledServoState, WIENER_N};
+use sledid::servo::{ServoDesign, ServoOptions, SledServo, SledServoState, WIENER_N};
 use std::path::Path;
 
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
@@ -117,11 +117,21 @@ impl ScheduledLoop {
         identifier: &IdentifierDesign<2>,
         wiener: Option<NonlinearDesign<WIENER_N>>,
     ) -> Result<Self, String> {
+        Self::with_options(design, identifier, wiener, ServoOptions::default())
+    }
+
+    /// As [`Self::with_wiener`], with the servo's options (hand-over latency, identification).
+    pub fn with_options(
+        design: &ScheduledDesign,
+        identifier: &IdentifierDesign<2>,
+        wiener: Option<NonlinearDesign<WIENER_N>>,
+        options: ServoOptions,
+    ) -> Result<Self, String> {
         let config = ServoDesign {
             controller: *design,
             velocity: *identifier,
             wiener,
-            handover_latency_samples: 1,
+            options,
         }
         .build()
         .map_err(|e| e.to_string())?;
@@ -272,6 +282,8 @@ pub struct ControlRun {
     pub trace: Vec<(Region, ControlFlags)>,
     /// The summary.
     pub summary: ControlSummary,
+    /// Every redesign outcome, in order (scheduled only).
+    pub redesigns: Vec<Redesign>,
 }
 
 /// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller
@@ -320,6 +332,20 @@ pub fn run_with(
     seeks: u32,
     design: Option<&ScheduledDesign>,
 ) -> Result<ControlRun, String> {
+    run_with_options(params, seed, seeks, design, ServoOptions::default())
+}
+
+/// [`run_with`] with the servo's options.
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_with_options(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+    options: ServoOptions,
+) -> Result<ControlRun, String> {
     let mut params = params.clone();
     params.reference.seek_count = seeks;
     params.reference.targets_tracks = None;
@@ -335,7 +361,8 @@ pub fn run_with(
         }
         Some(design) => {
             let prior = design.prior_model.unwrap_or((0.8, 20.0));
-            let mut c = ScheduledLoop::new(design, &identifier_design(prior))?;
+            let mut c =
+                ScheduledLoop::with_options(design, &identifier_design(prior), None, options)?;
             twin.set_controller_label("scheduled");
             twin.run(&mut c);
             (c.trace, c.redesigns, ControllerKind::Scheduled)
@@ -346,6 +373,7 @@ pub fn run_with(
         twin,
         trace,
         summary,
+        redesigns,
     })
 }
 

@@ -5,6 +5,7 @@ pub mod closed_loop;
 pub mod compare;
 pub mod control_eval;
 pub mod control_plot;
+pub mod family;
 pub mod faults;
 pub mod pacing;
 pub mod plants;

@@ -116,7 +116,7 @@ fn shadow_mode_identifies_from_the_applied_drive() {
         controller: design,
         velocity: identifier_design(design.prior_model.unwrap()),
         wiener: Some(wiener()),
-        handover_latency_samples: 1,
+        options: sledid::servo::ServoOptions::default(),
     };
     let cfg = loop_design.build().unwrap();
     let (mut normal, mut shadow_same, mut shadow_other) =
@@ -162,7 +162,7 @@ fn configuration_words_of_a_full_design_round_trip() {
         controller,
         velocity,
         wiener: Some(wiener()),
-        handover_latency_samples: 1,
+        options: sledid::servo::ServoOptions::default(),
     };
     let built = design.build().expect("the design builds");
     let mut buf = [0u32; SERVO_WORDS_MAX];

@@ -6,9 +6,9 @@
 //! the start of the dwell. The same data without anti-windup winds P up and drags θ around — so the
 //! tests can fail. Every figure is measured from the dwell's first sample.
 //!
-//! Finding (issue 12): on the paper's loop the one-quantum dead zone does not hold θ. Measured from
-//! the dwell's start, θ drifts 1.005 (bound 0.3): see
-//! [`on_the_paper_loop_the_dead_zone_holds_theta_from_the_dwell_start`], ignored with that reason.
+//! On the paper's loop a one-quantum dead zone does not hold θ (its limit cycle's prediction
+//! errors are 1.00–1.09 quanta); 1.5 quanta does, on both loops:
+//! [`a_dead_zone_of_one_and_a_half_quanta_holds_theta_on_both_loops`].
 
 use sledid::ident::conditioning::Conditioning;
 use sledid::ident::linear::{LinearDesign, Structure};
@@ -167,32 +167,14 @@ fn on_the_paper_loop_anti_windup_keeps_p_bounded_from_the_dwell_start() {
     );
 }
 
-/// Finding (issue 12), measured from the dwell's first sample: the one-quantum dead zone does not
-/// hold θ on the paper's loop. Each ±1-quantum step of the limit cycle leaves a prediction error of
-/// 1.00–1.09 quanta — just past the dead zone — and updates θ: 36 updates in the first 873 samples
-/// walk b₁ from −7.58 (the seek's estimate) to +0.06, through zero, then 16 more over the rest of
-/// the 10⁶ samples keep it there. Max θ drift 1.005 (bound 0.3), 52 updates (bound 10); without
-/// anti-windup 1.73. (Started 10⁵ samples in, as it was, the test saw 4 updates and 0.22.)
-/// Measured with other dead zones on the same data (θ drift, updates): 1.1 q 0.37, 13; 1.25 q
-/// 0.089, 3; 1.5 q 0, 0 (`a_dead_zone_of_one_and_a_half_quanta_holds_theta_on_both_loops`).
-/// The bound is kept; the test is ignored until the design changes:
-/// `cargo test -p sledid-host --test windup -- --ignored --nocapture` shows the failure.
-#[test]
-#[ignore = "finding (issue 12): from the dwell's start θ drifts 1.005 with 52 updates (bounds 0.3, 10); see its doc"]
-fn on_the_paper_loop_the_dead_zone_holds_theta_from_the_dwell_start() {
-    let guarded = run(TwinParams::default(), guarded_design());
-    let naked = run(TwinParams::default(), naked_design());
-    print("paper loop, guarded", &guarded);
-    print("paper loop, none", &naked);
-    assert!(guarded.max_drift < 0.3, "θ drifted {}", guarded.max_drift);
-    assert!(guarded.updates <= 10, "{} updates", guarded.updates);
-    assert!(naked.max_drift > 3.0 * guarded.max_drift);
-}
-
-/// What the finding above measured as the way out: a dead zone of 1.5 quanta (above the limit
-/// cycle's 1.00–1.09-quantum prediction errors) lets no update through on either loop from the
-/// dwell's start — θ does not move at all — while P stays bounded. Trips if the limit cycle's
-/// prediction errors grow past 1.5 quanta or the dead zone stops gating.
+/// The dead zone a limit cycle needs. Measured from the dwell's first sample, a one-quantum dead
+/// zone does not hold θ on the paper's loop: each ±1-quantum step of its limit cycle leaves a
+/// prediction error of 1.00–1.09 quanta, just past the dead zone, and 36 updates in the first 873
+/// samples walk b₁ from −7.58 (the seek's estimate) to +0.06 (max θ drift 1.005 over 10⁶ samples,
+/// 52 updates). Other dead zones on the same data (θ drift, updates): 1.1 q 0.37, 13; 1.25 q 0.089,
+/// 3; 1.5 q 0, 0. So the dead zone must clear the limit cycle's prediction errors: with 1.5 quanta
+/// no update gets through on either loop — θ does not move at all — while P stays bounded. Trips
+/// if the limit cycle's prediction errors grow past 1.5 quanta or the dead zone stops gating.
 #[test]
 fn a_dead_zone_of_one_and_a_half_quanta_holds_theta_on_both_loops() {
     let wider = RlsDesign {

@@ -349,7 +349,7 @@ impl LoopBench {
             controller,
             velocity,
             wiener: Some(wiener),
-            handover_latency_samples: 1,
+            options: sledid::servo::ServoOptions::default(),
         }
         .build()
         .ok()?;

@@ -29,8 +29,13 @@ impl ControlFlags {
     /// Seek → Settle: a redesign is due (the servo hands the job to the background).
     pub const REDESIGN_REQUESTED: Self = Self(1 << 9);
 
+    /// Settle: a fine step toward the target cell (at rest near the band's edge).
+    pub const FINE_STEP: Self = Self(1 << 10);
+    /// Settle: coasting into the band, damping only.
+    pub const COASTING: Self = Self(1 << 11);
+
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 10] = [
+    pub const NAMES: [(Self, &'static str); 12] = [
         (Self::OUTPUT_SATURATED, "output_saturated"),
         (Self::INTEGRATOR_LIMITED, "integrator_limited"),
         (Self::INTEGRATION_HELD, "integration_held"),
@@ -41,6 +46,8 @@ impl ControlFlags {
         (Self::FIRST_SAMPLE, "first_sample"),
         (Self::MODEL_UNTRUSTED, "model_untrusted"),
         (Self::REDESIGN_REQUESTED, "redesign_requested"),
+        (Self::FINE_STEP, "fine_step"),
+        (Self::COASTING, "coasting"),
     ];
 }
 

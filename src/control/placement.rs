@@ -48,14 +48,23 @@ pub struct PlacementDesign {
     pub settle_pole: f64,
     /// Reference feedforward through the model inverse in the seek.
     pub feedforward: bool,
+    /// p_o: the velocity observer's pole bound, in [0, 1): the observer gain is the smallest
+    /// that puts its pole (1 − l)·a at or below p_o.
+    pub observer_pole: f64,
+    /// l_min: the observer gain's floor, in (0, 1]: how much of each measured position
+    /// difference the estimate takes even when the model alone would be fast enough (it corrects
+    /// the model's errors: friction, a drifting estimate).
+    pub observer_gain_min: f64,
 }
 
 impl Default for PlacementDesign {
     fn default() -> Self {
         Self {
-            seek_pole: 0.5,
+            seek_pole: 0.4,
             settle_pole: 0.7,
             feedforward: true,
+            observer_pole: 0.5,
+            observer_gain_min: 0.25,
         }
     }
 }
@@ -64,7 +73,10 @@ impl Default for PlacementDesign {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SupervisorDesign {
-    /// Smallest accepted velocity pole a.
+    /// Smallest velocity pole a placed from: a smaller estimate in (−1, pole_min) is projected up
+    /// to it, keeping the model's DC gain b/(1 − a) (a sled's velocity pole e^{−Ts·b_v/m} is
+    /// positive; a negative estimate is the bias of first-differenced quantisation noise on a fast
+    /// plant). An estimate at or below −1 is refused.
     pub pole_min: f64,
     /// Largest accepted velocity pole a (< 1: a stable velocity model).
     pub pole_max: f64,
@@ -81,7 +93,7 @@ pub struct SupervisorDesign {
 impl Default for SupervisorDesign {
     fn default() -> Self {
         Self {
-            pole_min: 0.2,
+            pole_min: 0.0,
             pole_max: 0.98,
             gain_min: 1.0,
             gain_max: 1000.0,
@@ -97,10 +109,14 @@ impl PlacementDesign {
     /// # Errors
     /// [`ConfigError::ClosedLoopPole`] for a pole not in [0, 1).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        for p in [self.seek_pole, self.settle_pole] {
+        for p in [self.seek_pole, self.settle_pole, self.observer_pole] {
             if !(p.is_finite() && (0.0..1.0).contains(&p)) {
                 return Err(ConfigError::ClosedLoopPole(p));
             }
+        }
+        let l = self.observer_gain_min;
+        if !(l.is_finite() && l > 0.0 && l <= 1.0) {
+            return Err(ConfigError::ClosedLoopPole(l));
         }
         Ok(())
     }
@@ -172,18 +188,30 @@ pub struct VelocityModel {
 pub struct ModelGains {
     /// Seek Kp on e.
     pub kp_seek: Gain,
-    /// Seek Kd/2 on the two-sample difference (r(k) − r(k−2)) − (y(k) − y(k−2)).
-    pub kd2_seek: Gain,
+    /// Seek Kd on the one-sample difference (r(k) − r(k−1)) − (y(k) − y(k−1)).
+    pub kd_seek: Gain,
     /// Feedforward (1 − a)/b on r(k) − r(k−1).
     pub kv_ff: Gain,
     /// Feedforward 1/b on the reference's second difference.
     pub ka_ff: Gain,
     /// Settle Kp on e.
     pub kp_settle: Gain,
-    /// Settle Kd/2 on y(k) − y(k−2) (subtracted).
-    pub kd2_settle: Gain,
+    /// Settle Kd on y(k) − y(k−1) (subtracted).
+    pub kd_settle: Gain,
     /// Settle Ki (per sample) on e.
     pub ki_settle: Gain,
+    /// Samples the readings must stay within one quantum before Hold cuts the drive: twice the
+    /// velocity's coasting time a/(1 − a), at least 4 (a sled still creeping would coast on).
+    pub rest_samples: u16,
+    /// Speed below which the sled counts as at rest, I16F16 raw quanta per sample: its coasting
+    /// distance v·a/(1 − a) is then under 0.3 quantum.
+    pub rest_speed_i16f16: i32,
+    /// Velocity observer: (1 − l)·a on the last estimate.
+    pub obs_a: Gain,
+    /// Velocity observer: (1 − l)·b on the last drive (quanta per sample per full scale).
+    pub obs_b: Gain,
+    /// Velocity observer: l on the measured position difference.
+    pub obs_l: Gain,
 }
 
 impl ModelGains {
@@ -194,12 +222,15 @@ impl ModelGains {
     pub fn validate(&self) -> Result<(), ConfigError> {
         let all = [
             self.kp_seek,
-            self.kd2_seek,
+            self.kd_seek,
             self.kv_ff,
             self.ka_ff,
             self.kp_settle,
-            self.kd2_settle,
+            self.kd_settle,
             self.ki_settle,
+            self.obs_a,
+            self.obs_b,
+            self.obs_l,
         ];
         if all.iter().all(|g| g.is_valid()) {
             Ok(())
@@ -211,12 +242,17 @@ impl ModelGains {
     /// Every gain zero (no model: the baseline runs).
     pub const ZERO: Self = Self {
         kp_seek: Gain::ZERO,
-        kd2_seek: Gain::ZERO,
+        kd_seek: Gain::ZERO,
         kv_ff: Gain::ZERO,
         ka_ff: Gain::ZERO,
         kp_settle: Gain::ZERO,
-        kd2_settle: Gain::ZERO,
+        kd_settle: Gain::ZERO,
         ki_settle: Gain::ZERO,
+        rest_samples: 4,
+        rest_speed_i16f16: 0,
+        obs_a: Gain::ZERO,
+        obs_b: Gain::ZERO,
+        obs_l: Gain::ZERO,
     };
 }
 
@@ -257,9 +293,16 @@ pub fn reduce(
         }
         _ => return Err(Rejection::ModelOrder),
     };
-    if !(a.is_finite() && f64::from(a) >= limits.pole_min && f64::from(a) <= limits.pole_max) {
+    if !(a.is_finite() && a > -1.0 && f64::from(a) <= limits.pole_max) {
         return Err(Rejection::PoleOutside(a));
     }
+    let floor = limits.pole_min as f32;
+    let (a, b) = if a < floor {
+        // Same DC gain b/(1 − a): b' = b·(1 − floor)/(1 − a), 1 − a > 0.
+        (floor, b * (1.0 - floor) / (1.0 - a))
+    } else {
+        (a, b)
+    };
     if b.is_nan() || b <= 0.0 {
         return Err(Rejection::GainSign(b));
     }
@@ -284,14 +327,24 @@ pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelG
     let bki_settle = 2.0 + a - s1 - bkp_settle - bkd_settle;
     let g = |x: f32| Gain::from_f64(f64::from(x / b)).ok_or(Rejection::GainFormat);
     let ff = placement.feedforward;
+    // Observer gain: (1 − l)·a ≤ p_o, l ≥ l_min.
+    let po = placement.observer_pole as f32;
+    let l_min = placement.observer_gain_min as f32;
+    let l = if a > po { 1.0 - po / a } else { 0.0 }.max(l_min).min(1.0);
+    let unit = |x: f32| Gain::from_f64(f64::from(x)).ok_or(Rejection::GainFormat);
     Ok(ModelGains {
         kp_seek: g((1.0 - ps) * (1.0 - ps))?,
-        kd2_seek: g((a - ps * ps) / 2.0)?,
+        kd_seek: g(a - ps * ps)?,
         kv_ff: if ff { g(1.0 - a)? } else { Gain::ZERO },
         ka_ff: if ff { g(1.0)? } else { Gain::ZERO },
         kp_settle: g(bkp_settle)?,
-        kd2_settle: g(bkd_settle / 2.0)?,
+        kd_settle: g(bkd_settle)?,
         ki_settle: g(bki_settle.max(0.0))?,
+        rest_samples: rest_samples(a),
+        rest_speed_i16f16: rest_speed_i16f16(a),
+        obs_a: unit((1.0 - l) * a)?,
+        obs_b: Gain::from_f64(f64::from((1.0 - l) * b)).ok_or(Rejection::GainFormat)?,
+        obs_l: unit(l)?,
     })
 }
 
@@ -300,13 +353,17 @@ impl Words for PlacementDesign {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         self.seek_pole.put(w)?;
         self.settle_pole.put(w)?;
-        self.feedforward.put(w)
+        self.feedforward.put(w)?;
+        self.observer_pole.put(w)?;
+        self.observer_gain_min.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
         Self {
             seek_pole: f64::take(r),
             settle_pole: f64::take(r),
             feedforward: bool::take(r),
+            observer_pole: f64::take(r),
+            observer_gain_min: f64::take(r),
         }
     }
 }
@@ -338,38 +395,74 @@ impl Words for SupervisorDesign {
     }
 }
 
-/// Words: the seven gains in declaration order.
+/// `0.3·(1 − a)/a` quanta per sample (at most ¼), I16F16 raw, at least one LSB.
+#[allow(clippy::float_arithmetic)] // slow-rate design
+fn rest_speed_i16f16(a: f32) -> i32 {
+    let v = if a > 0.0 { 0.3 * (1.0 - a) / a } else { 0.25 };
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 0.25) };
+    ((v * 65_536.0) as i32).max(1)
+}
+
+/// `clamp(⌈2a/(1 − a)⌉, 4, 255)` samples.
+#[allow(clippy::float_arithmetic)] // slow-rate design
+fn rest_samples(a: f32) -> u16 {
+    let coast = 2.0 * a / (1.0 - a).max(1e-3);
+    if coast.is_nan() || coast < 4.0 {
+        4
+    } else if coast >= 255.0 {
+        255
+    } else {
+        (coast as u16) + 1
+    }
+}
+
+/// Words: the seven gains in declaration order, the rest samples.
 impl Words for ModelGains {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         [
             self.kp_seek,
-            self.kd2_seek,
+            self.kd_seek,
             self.kv_ff,
             self.ka_ff,
             self.kp_settle,
-            self.kd2_settle,
+            self.kd_settle,
             self.ki_settle,
+            self.obs_a,
+            self.obs_b,
+            self.obs_l,
         ]
-        .put(w)
+        .put(w)?;
+        self.rest_samples.put(w)?;
+        self.rest_speed_i16f16.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
         let [
             kp_seek,
-            kd2_seek,
+            kd_seek,
             kv_ff,
             ka_ff,
             kp_settle,
-            kd2_settle,
+            kd_settle,
             ki_settle,
-        ] = <[Gain; 7]>::take(r);
+            obs_a,
+            obs_b,
+            obs_l,
+        ] = <[Gain; 10]>::take(r);
+        let rest_samples = u16::take(r);
+        let rest_speed_i16f16 = i32::take(r);
         Self {
             kp_seek,
-            kd2_seek,
+            kd_seek,
             kv_ff,
             ka_ff,
             kp_settle,
-            kd2_settle,
+            kd_settle,
             ki_settle,
+            rest_samples,
+            rest_speed_i16f16,
+            obs_a,
+            obs_b,
+            obs_l,
         }
     }
 }
@@ -411,31 +504,40 @@ mod tests {
     }
 
     #[test]
-    fn placement_gives_the_closed_forms() {
-        let g = place(
-            VelocityModel { a: 0.83, b: 23.7 },
-            &PlacementDesign::default(),
-        )
-        .unwrap();
-        let close = |x: Gain, y: f64| (x.to_f64() - y).abs() < 1e-6 * y.abs().max(1.0);
-        assert!(close(g.kp_seek, 0.25 / 23.7));
-        assert!(close(g.kd2_seek, (0.83 - 0.25) / 2.0 / 23.7));
-        assert!(close(g.ka_ff, 1.0 / 23.7));
-        let (s1, s2, s3) = (2.1, 3.0 * 0.7 * 0.7, 0.7f64.powi(3));
-        assert!(close(g.kp_settle, (1.0 + 2.0 * s3 - s2) / 23.7));
-        let bki = 2.0 + 0.83 - s1 - (1.0 + 2.0 * s3 - s2) - (0.83 - s3);
-        assert!((g.ki_settle.to_f64() - bki / 23.7).abs() < 1e-6);
-        assert!(
+    fn observer_and_rest_settings_follow_the_model_and_designs_are_checked() {
+        // The closed-loop poles themselves are found independently of these formulas in
+        // `host-tests/tests/placement_poles.rs`; here the observer's gain (pole (1 − l)·a ≤ p_o,
+        // l ≥ l_min) and the rest settings.
+        let d = PlacementDesign::default();
+        for (a, l) in [(0.83f32, 1.0 - 0.5 / 0.83f64), (0.3, 0.25), (0.05, 0.25)] {
+            let g = place(VelocityModel { a, b: 23.7 }, &d).unwrap();
+            assert!((g.obs_l.to_f64() - l).abs() < 1e-6, "{a}");
+            assert!(g.obs_a.to_f64() <= d.observer_pole + 1e-6, "{a}");
+            assert!((g.obs_b.to_f64() - (1.0 - l) * 23.7).abs() < 1e-4);
+        }
+        let slow = place(VelocityModel { a: 0.97, b: 5.0 }, &d).unwrap();
+        assert_eq!(slow.rest_samples, 65); // ⌈2·0.97/0.03⌉
+        assert!(slow.rest_speed_i16f16 < (0.3 * 0.03 / 0.97 * 65_536.0) as i32 + 2);
+        for bad in [
             PlacementDesign {
                 settle_pole: 1.0,
-                ..PlacementDesign::default()
-            }
-            .validate()
-            .is_err()
-        );
+                ..d
+            },
+            PlacementDesign {
+                observer_pole: -0.1,
+                ..d
+            },
+            PlacementDesign {
+                observer_gain_min: 0.0,
+                ..d
+            },
+        ] {
+            assert!(bad.validate().is_err());
+        }
         assert!(
             SupervisorDesign {
                 pole_max: 0.1,
+                pole_min: 0.2,
                 ..SupervisorDesign::default()
             }
             .validate()

@@ -191,6 +191,9 @@ pub trait Identifier {
     fn identify(&self, state: &mut Self::State, sample: &Sample) -> Self::Output;
     /// A sample that could not be read: θ and P held. Never panics.
     fn reject(&self, state: &mut Self::State) -> Self::Output;
+    /// Holds (false) or resumes (true) adaptation from the next sample on; the model keeps
+    /// predicting while held.
+    fn set_adapting(&self, state: &mut Self::State, adapting: bool);
     /// The report of one output.
     fn report(output: &Self::Output) -> ModelReport;
     /// The current estimate θ.
@@ -211,6 +214,10 @@ impl<const N: usize, M: Estimator<N>> Identifier for IdentifierConfig<N, M> {
 
     fn reject(&self, state: &mut Self::State) -> StepOutput<N> {
         reject(self, state)
+    }
+
+    fn set_adapting(&self, state: &mut Self::State, adapting: bool) {
+        state.set_enabled(adapting);
     }
 
     fn report(output: &StepOutput<N>) -> ModelReport {

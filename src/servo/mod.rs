@@ -76,8 +76,104 @@ pub struct ServoDesign {
     pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
     /// The Wiener model at 2·Ts on the centred position (`None`: not run).
     pub wiener: Option<NonlinearDesign<WIENER_N>>,
+    /// The servo's own settings (hand-over latency, identification).
+    pub options: ServoOptions,
+}
+
+/// Whether the identifier learns on-line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Identification {
+    /// The identifier adapts while the sled moves; redesigns follow it (the product).
+    #[default]
+    OnLine,
+    /// The identifier never adapts: the controller keeps the prior's design (the ablation that
+    /// shows what identification earns).
+    FrozenAtPrior,
+}
+
+/// The servo's own settings, in engineering units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ServoOptions {
     /// L: a redesign requested by sample k is adopted at sample k + L (≥ 1).
     pub handover_latency_samples: u16,
+    /// On-line or frozen at the prior.
+    pub identification: Identification,
+    /// The identifier adapts only while |y(k) − y(k−1)| and |y(k−1) − y(k−2)| are both at least
+    /// this, quanta per sample: at low speed the first-differenced quantisation noise (its
+    /// successive differences are negatively correlated) biases the velocity pole down.
+    pub identify_min_speed_quanta: f64,
+}
+
+impl Default for ServoOptions {
+    fn default() -> Self {
+        Self {
+            handover_latency_samples: 1,
+            identification: Identification::OnLine,
+            identify_min_speed_quanta: 2.0,
+        }
+    }
+}
+
+/// The validated, quantised [`ServoOptions`] (`Copy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ServoSettings {
+    latency: u32,
+    adapt: bool,
+    min_speed_i16f16: u32,
+}
+
+impl ServoOptions {
+    /// Validates and quantises.
+    ///
+    /// # Errors
+    /// [`ConfigError::HandoverLatency`] for L = 0, [`ConfigError::IdentifySpeed`] for a speed
+    /// gate that is negative, not finite or beyond the I16F16 range.
+    pub fn build(&self) -> Result<ServoSettings, ConfigError> {
+        let speed = SignalI16F16::from_f64(self.identify_min_speed_quanta)
+            .ok()
+            .filter(|s| s.raw() >= 0)
+            .ok_or(ConfigError::IdentifySpeed(self.identify_min_speed_quanta))?;
+        let s = ServoSettings {
+            latency: u32::from(self.handover_latency_samples),
+            adapt: self.identification == Identification::OnLine,
+            min_speed_i16f16: speed.raw().unsigned_abs(),
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+impl ServoSettings {
+    /// `1 ≤ L ≤ 65,535`, a speed gate in `[0, 2³¹)`: checked by [`ServoOptions::build`] and by the
+    /// decoding of configuration words alike.
+    ///
+    /// # Errors
+    /// [`ConfigError::HandoverLatency`] or [`ConfigError::IdentifySpeed`].
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(1..=u32::from(u16::MAX)).contains(&self.latency) {
+            return Err(ConfigError::HandoverLatency(0));
+        }
+        if self.min_speed_i16f16 > i32::MAX as u32 {
+            return Err(ConfigError::IdentifySpeed(f64::NAN));
+        }
+        Ok(())
+    }
+}
+
+/// Words: L, adapt, the speed gate (I16F16 raw).
+impl Words for ServoSettings {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.latency.put(w)?;
+        self.adapt.put(w)?;
+        self.min_speed_i16f16.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self {
+            latency: u32::take(r),
+            adapt: bool::take(r),
+            min_speed_i16f16: u32::take(r),
+        }
+    }
 }
 
 /// The controller's identifier as the servo expects it: ARX(1, 1) on the velocity Δy against u
@@ -108,7 +204,7 @@ pub struct ServoConfig<C, I> {
     identifier: I,
     wiener: Option<NonlinearConfig<WIENER_N>>,
     decimator: DecimatorConfig,
-    latency: u32,
+    settings: ServoSettings,
 }
 
 /// Everything one sample (or an adopted redesign) mutates.
@@ -120,6 +216,8 @@ pub struct ServoState<C: Controller, I: Identifier> {
     report: ModelReport,
     /// The last position read (held through a lost reading).
     last_y: PositionI48F16,
+    y1: i64,
+    y2: i64,
     wiener: Option<NonlinearState<WIENER_N>>,
     decimate_y: DecimatorState,
     decimate_u: DecimatorState,
@@ -176,24 +274,24 @@ impl ServoDesign {
             velocity: velocity_identifier(controller.prior_model.unwrap_or((0.8, 20.0))),
             controller,
             wiener: None,
-            handover_latency_samples: 1,
+            options: ServoOptions::default(),
         }
     }
 
     /// Validates and quantises every part.
     ///
     /// # Errors
-    /// The first part's [`ConfigError`], or [`ConfigError::HandoverLatency`] for L = 0.
+    /// The first part's [`ConfigError`].
     pub fn build(&self) -> Result<SledServo, ConfigError> {
-        ServoConfig::new(
+        Ok(ServoConfig::new(
             self.controller.build()?,
             self.velocity.build()?,
             match &self.wiener {
                 Some(w) => Some(w.build()?),
                 None => None,
             },
-            self.handover_latency_samples,
-        )
+            self.options.build()?,
+        ))
     }
 
     /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
@@ -220,7 +318,7 @@ impl ServoDesign {
         if let Some(wiener) = &self.wiener {
             wiener.put_words(&mut w).map_err(at)?;
         }
-        built.latency.put(&mut w).map_err(at)?;
+        built.settings.put(&mut w).map_err(at)?;
         built.controller.put(&mut w).map_err(at)?;
         let payload_len = w.len();
         crate::words::seal(out, payload_len)
@@ -234,26 +332,20 @@ pub const SERVO_WORDS_MAX: usize = 192;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, the Wiener model
-    /// beside them if given, a redesign adopted `latency_samples` after its request.
-    ///
-    /// # Errors
-    /// [`ConfigError::HandoverLatency`] for a latency of 0.
+    /// beside them if given, with the servo's own settings.
     pub fn new(
         controller: C,
         identifier: I,
         wiener: Option<NonlinearConfig<WIENER_N>>,
-        latency_samples: u16,
-    ) -> Result<Self, ConfigError> {
-        if latency_samples == 0 {
-            return Err(ConfigError::HandoverLatency(latency_samples));
-        }
-        Ok(Self {
+        settings: ServoSettings,
+    ) -> Self {
+        Self {
             controller,
             identifier,
             wiener,
             decimator: DecimatorConfig::HALF_BAND_23,
-            latency: u32::from(latency_samples),
-        })
+            settings,
+        }
     }
 
     /// A fresh state.
@@ -264,6 +356,8 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             identifier: self.identifier.new_state(),
             report: ModelReport::default(),
             last_y: PositionI48F16::default(),
+            y1: 0,
+            y2: 0,
             wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
             decimate_y: self.decimator.new_state(),
             decimate_u: self.decimator.new_state(),
@@ -283,7 +377,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
 
     /// L: samples from a redesign's request to its adoption.
     pub fn handover_latency(&self) -> u32 {
-        self.latency
+        self.settings.latency
     }
 
     /// The background's work on a posted job (outside the sample interrupt; it may take up to L
@@ -362,6 +456,13 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         let input = ControlInput { r, y, report };
         let out = self.controller.step(&mut state.controller, &input);
         let u_plant = u_applied.unwrap_or(out.u);
+        // Identify from motion only: at low speed the first-differenced quantisation noise
+        // (negatively correlated from one difference to the next) biases the velocity pole down.
+        let gate = u64::from(self.settings.min_speed_i16f16);
+        let moving = y.raw().abs_diff(state.y1) >= gate && state.y1.abs_diff(state.y2) >= gate;
+        (state.y2, state.y1) = (state.y1, y.raw());
+        self.identifier
+            .set_adapting(&mut state.identifier, moving && self.settings.adapt);
         let identified = match measured {
             Some(y) => self
                 .identifier
@@ -387,7 +488,9 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         if state.handover.is_free() {
             let theta = self.identifier.theta(&state.identifier);
             if let Some(job) = self.controller.redesign_job(&mut state.controller, theta) {
-                state.handover.post(job, state.k.wrapping_add(self.latency));
+                state
+                    .handover
+                    .post(job, state.k.wrapping_add(self.settings.latency));
                 servo.insert(ServoFlags::REDESIGN_POSTED);
             }
         }
@@ -453,6 +556,8 @@ where
             identifier: self.identifier.clone(),
             report: self.report,
             last_y: self.last_y,
+            y1: self.y1,
+            y2: self.y2,
             wiener: self.wiener.clone(),
             decimate_y: self.decimate_y.clone(),
             decimate_u: self.decimate_u.clone(),
@@ -508,14 +613,14 @@ impl SledServo {
             true => Some(NonlinearConfig::take_words(&mut r)?),
             false => None,
         };
-        let latency = u32::take(&mut r);
+        let settings = ServoSettings::take(&mut r);
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
             identifier,
             wiener,
             decimator: DecimatorConfig::HALF_BAND_23,
-            latency,
+            settings,
         });
         let done = r
             .finish()
@@ -531,14 +636,12 @@ impl SledServo {
         done
     }
 
-    /// Every part's invariants (the same `validate` their `build`s run) and `1 ≤ L ≤ 65,535`.
+    /// Every part's invariants (the same `validate` their `build`s run).
     ///
     /// # Errors
-    /// The part's [`ConfigError`], or [`ConfigError::HandoverLatency`].
+    /// The part's [`ConfigError`].
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if !(1..=u32::from(u16::MAX)).contains(&self.latency) {
-            return Err(ConfigError::HandoverLatency(0));
-        }
+        self.settings.validate()?;
         self.identifier.validate()?;
         if let Some(w) = &self.wiener {
             w.validate()?;

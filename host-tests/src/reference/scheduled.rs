@@ -1,54 +1,74 @@
-//! The gain-scheduled controller of `sledid::control::scheduled` in `f64` ([`ScheduledF64`]):
-//! the same regions, supervisor, transfers and laws, written directly from the module
-//! documentation, with its own pole placement (f64, not the library's f32 + `libm`), the exact
+//! The numeric law of `sledid::control::scheduled` in `f64` ([`ScheduledF64`]): the pole
+//! placement and the velocity observer's gains ([`place_f64`], f64, not the library's f32 +
+//! `libm`), the model reduction with its projection ([`reduce_f64`]), the observer, the seek,
+//! settle, fine-step and coasting laws, the transfers and the conditional integrator, the exact
 //! inverse of the input map (bisection on `h(u) = u + w·tanh(a·u + c)` with `f64::tanh`, not the
-//! interpolated table) and the f64 baseline [`PidF64`] as the fallback. It is what the fixed-point
-//! path is measured against (`host-tests/tests/scheduled_control.rs`).
+//! interpolated table) and the f64 baseline [`PidF64`] as the fallback — written from the module
+//! documentation. The *decisions* (region, fine step, coasting, fallback) are the fixed-point
+//! controller's, passed in per sample as a [`LawMode`]: they are logic on integer readings and
+//! counters, tested on their own; what is measured here is the arithmetic
+//! (`host-tests/tests/scheduled_control.rs`).
 
-use sledid::Status;
-use sledid::control::scheduled::supervisor::DISTRUST;
-use sledid::control::{ConfigError, Region, ScheduledDesign};
+use sledid::control::placement::PlacementDesign;
+use sledid::control::{ConfigError, ControlFlags, ControlOutput, Region, ScheduledDesign};
 
 use super::control::PidF64;
 
-/// Gains in full scale per quantum (per sample for Ki).
+/// Gains in full scale per quantum (per sample for Ki), and the observer's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GainsF64 {
     /// Seek Kp.
     pub kp_seek: f64,
-    /// Seek Kd/2.
-    pub kd2_seek: f64,
+    /// Seek Kd.
+    pub kd_seek: f64,
     /// (1 − a)/b.
     pub kv_ff: f64,
     /// 1/b.
     pub ka_ff: f64,
     /// Settle Kp.
     pub kp_settle: f64,
-    /// Settle Kd/2.
-    pub kd2_settle: f64,
+    /// Settle Kd.
+    pub kd_settle: f64,
     /// Settle Ki.
     pub ki_settle: f64,
+    /// Observer (1 − l)·a.
+    pub obs_a: f64,
+    /// Observer (1 − l)·b.
+    pub obs_b: f64,
+    /// Observer l.
+    pub obs_l: f64,
 }
 
 /// The pole placement of `sledid::control::placement` in f64 for the velocity model (a, b).
-pub fn place_f64(a: f64, b: f64, seek_pole: f64, settle_pole: f64, ff: bool) -> GainsF64 {
-    let (ps, pz) = (seek_pole, settle_pole);
+pub fn place_f64(a: f64, b: f64, p: &PlacementDesign) -> GainsF64 {
+    let (ps, pz) = (p.seek_pole, p.settle_pole);
     let (s1, s2, s3) = (3.0 * pz, 3.0 * pz * pz, pz.powi(3));
     let bkd = a - s3;
     let bkp = 1.0 + 2.0 * s3 - s2;
     let bki = (2.0 + a - s1 - bkp - bkd).max(0.0);
+    let l = if a > p.observer_pole {
+        1.0 - p.observer_pole / a
+    } else {
+        0.0
+    }
+    .clamp(p.observer_gain_min, 1.0);
+    let ff = p.feedforward;
     GainsF64 {
         kp_seek: (1.0 - ps).powi(2) / b,
-        kd2_seek: (a - ps * ps) / 2.0 / b,
+        kd_seek: (a - ps * ps) / b,
         kv_ff: if ff { (1.0 - a) / b } else { 0.0 },
         ka_ff: if ff { 1.0 / b } else { 0.0 },
         kp_settle: bkp / b,
-        kd2_settle: bkd / 2.0 / b,
+        kd_settle: bkd / b,
         ki_settle: bki / b,
+        obs_a: (1.0 - l) * a,
+        obs_b: (1.0 - l) * b,
+        obs_l: l,
     }
 }
 
-/// θ = [a₁ … a_na, b…] → (a, b) with the supervisor's checks; `None` when refused.
+/// θ = [a₁ … a_na, b…] → (a, b) with the supervisor's checks and the projection of a pole below
+/// `pole_min` up to it (same DC gain); `None` when refused.
 pub fn reduce_f64(theta: &[f64], na: usize, design: &ScheduledDesign) -> Option<(f64, f64)> {
     let s = &design.supervisor;
     let b_sum: f64 = theta.iter().skip(na).sum();
@@ -65,11 +85,53 @@ pub fn reduce_f64(theta: &[f64], na: usize, design: &ScheduledDesign) -> Option<
             (a, (1.0 - a) * b_sum / (1.0 + a1 + a2))
         }
     };
-    let ok = (s.pole_min..=s.pole_max).contains(&a) && (s.gain_min..=s.gain_max).contains(&b);
-    ok.then_some((a, b))
+    if !(a > -1.0 && a <= s.pole_max) {
+        return None;
+    }
+    let (a, b) = if a < s.pole_min {
+        (s.pole_min, b * (1.0 - s.pole_min) / (1.0 - a))
+    } else {
+        (a, b)
+    };
+    (s.gain_min..=s.gain_max).contains(&b).then_some((a, b))
 }
 
-/// The controller law in f64: positions in quanta, u in full scale.
+/// The law a sample ran, as the fixed-point controller decided it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LawMode {
+    /// The baseline PID (the model distrusted or refused).
+    Fallback,
+    /// Hold: the hold bias.
+    Hold,
+    /// Seek: PD with the model-inverse feedforward.
+    Seek,
+    /// Settle, a fine step: the settle law without compensation.
+    Fine,
+    /// Settle, coasting: damping only.
+    Coast,
+    /// Settle: the PID law with compensation.
+    Settle,
+}
+
+impl LawMode {
+    /// The mode of one fixed-point output.
+    pub fn of(out: &ControlOutput) -> Self {
+        let f = out.flags;
+        if f.contains(ControlFlags::FALLBACK) {
+            Self::Fallback
+        } else {
+            match out.region {
+                Region::Hold => Self::Hold,
+                Region::Seek => Self::Seek,
+                Region::Settle if f.contains(ControlFlags::FINE_STEP) => Self::Fine,
+                Region::Settle if f.contains(ControlFlags::COASTING) => Self::Coast,
+                Region::Settle => Self::Settle,
+            }
+        }
+    }
+}
+
+/// The numeric law in f64: positions in quanta, u in full scale.
 #[derive(Clone, Debug)]
 pub struct ScheduledF64 {
     design: ScheduledDesign,
@@ -79,21 +141,15 @@ pub struct ScheduledF64 {
     /// (w, a, c) of the compensated Wiener output map.
     output_map: Option<(f64, f64, f64)>,
     y1: f64,
-    y2: f64,
     r1: f64,
-    r2: f64,
     dr1_previous: f64,
+    v_hat: f64,
     integral: f64,
     last_v: f64,
     last_u: f64,
-    region: Region,
+    mode: LawMode,
     primed: bool,
-    in_fallback: bool,
     pid: PidF64,
-    untrusted: u16,
-    eps_mean: f64,
-    trusted_updates: u32,
-    redesign_pending: bool,
 }
 
 impl ScheduledF64 {
@@ -103,10 +159,9 @@ impl ScheduledF64 {
     /// The design's [`ConfigError`].
     pub fn new(design: &ScheduledDesign) -> Result<Self, ConfigError> {
         design.build()?;
-        let p = &design.placement;
         let gains = design
             .prior_model
-            .map(|(a, b)| place_f64(a, b, p.seek_pole, p.settle_pole, p.feedforward));
+            .map(|(a, b)| place_f64(a, b, &design.placement));
         let wac = |m: sledid::control::InverseInputMap| {
             let n = m.neuron();
             (n.w().to_f64(), n.a().to_f64(), n.c().to_f64())
@@ -117,21 +172,15 @@ impl ScheduledF64 {
             map: design.compensation.map(wac),
             output_map: design.output_map.map(wac),
             y1: 0.0,
-            y2: 0.0,
             r1: 0.0,
-            r2: 0.0,
             dr1_previous: 0.0,
+            v_hat: 0.0,
             integral: 0.0,
             last_v: 0.0,
             last_u: 0.0,
-            region: Region::Seek,
+            mode: LawMode::Seek,
             primed: false,
-            in_fallback: false,
             pid: PidF64::new(&design.baseline)?,
-            untrusted: 0,
-            eps_mean: 0.0,
-            trusted_updates: 0,
-            redesign_pending: false,
         })
     }
 
@@ -150,125 +199,111 @@ impl ScheduledF64 {
         -inverse_of(self.output_map, -e)
     }
 
-    /// A redesign is due.
-    pub fn redesign_pending(&self) -> bool {
-        self.redesign_pending
-    }
-
-    /// The gains in use (`None`: fallback latched).
+    /// The gains in use (`None`: none yet, or refused).
     pub fn gains(&self) -> Option<GainsF64> {
         self.gains
     }
 
-    /// The slow-rate redesign from θ (f64); true when gains were placed.
-    pub fn redesign(&mut self, theta: &[f64]) -> bool {
-        self.redesign_pending = false;
-        if self.untrusted > 0 || self.eps_mean > self.design.supervisor.eps_limit_quanta {
-            self.gains = None;
-            return false;
-        }
-        if self.trusted_updates == 0 {
-            return false;
-        }
-        self.trusted_updates = 0;
-        let p = self.design.placement;
-        self.gains = reduce_f64(theta, self.design.model_na, &self.design)
-            .map(|(a, b)| place_f64(a, b, p.seek_pole, p.settle_pole, p.feedforward));
-        self.gains.is_some()
-    }
-
-    fn select(&self, e: f64, dy2: f64, dr1: f64) -> Region {
-        let g = &self.design.regions;
-        if dr1.abs() > g.moving_quanta || e.abs() > g.settle_leave_quanta {
-            return Region::Seek;
-        }
-        match self.region {
-            Region::Seek if e.abs() <= g.settle_enter_quanta => Region::Settle,
-            Region::Settle
-                if e.abs() <= g.hold_enter_quanta && dy2.abs() <= g.hold_speed_quanta =>
-            {
-                Region::Hold
-            }
-            Region::Hold if e.abs() > g.hold_leave_quanta => Region::Settle,
-            same => same,
+    /// An accepted redesign: gains placed (f64) from θ; a refusal (`None` from [`reduce_f64`])
+    /// keeps the gains (the fixed-point controller then runs its fallback, which the mode says).
+    pub fn adopt(&mut self, theta: &[f64]) {
+        if let Some((a, b)) = reduce_f64(theta, self.design.model_na, &self.design) {
+            self.gains = Some(place_f64(a, b, &self.design.placement));
         }
     }
 
-    /// One sample: r, y (quanta), the identifier's flags and ε (quanta per sample); returns
-    /// (u in full scale, region, fallback).
-    pub fn step(&mut self, r: f64, y: f64, status: Status, eps: f64) -> (f64, Region, bool) {
+    /// The velocity estimate v̂, quanta per sample.
+    pub fn velocity(&self) -> f64 {
+        self.v_hat
+    }
+
+    /// One sample of the law `mode` (the fixed-point controller's decision) at r, y (quanta);
+    /// returns u (full scale).
+    pub fn step(&mut self, mode: LawMode, r: f64, y: f64) -> f64 {
         let d = self.design;
         let fs = d.baseline.u_full_scale_v;
+        // The linear position x̂ = r + m⁻¹(y − r) (y without an output map).
+        let y_raw = y;
+        let e = self.settle_error(r - y);
+        let y = r - e;
         if !self.primed {
             self.primed = true;
-            (self.y1, self.y2, self.r1, self.r2, self.dr1_previous) = (y, y, r, r, 0.0);
+            (self.y1, self.r1, self.dr1_previous) = (y, r, 0.0);
         }
-        let (e, dy2, dr2, dr1) = (r - y, y - self.y2, r - self.r2, r - self.r1);
+        let (dy1, dr1) = (y - self.y1, r - self.r1);
         let ar = dr1 - self.dr1_previous;
-        (self.y2, self.y1, self.r2, self.r1, self.dr1_previous) = (self.y1, y, self.r1, r, dr1);
-        let bad = status.intersects(DISTRUST);
-        self.untrusted = if bad {
-            d.supervisor.untrusted_hold_samples
-        } else {
-            self.untrusted.saturating_sub(1)
+        (self.y1, self.r1, self.dr1_previous) = (y, r, dr1);
+        let g = self.gains.unwrap_or(GainsF64 {
+            kp_seek: 0.0,
+            kd_seek: 0.0,
+            kv_ff: 0.0,
+            ka_ff: 0.0,
+            kp_settle: 0.0,
+            kd_settle: 0.0,
+            ki_settle: 0.0,
+            obs_a: 0.0,
+            obs_b: 0.0,
+            obs_l: 0.0,
+        });
+        self.v_hat = g.obs_a * self.v_hat + g.obs_b * self.last_v + g.obs_l * dy1;
+        let previous = std::mem::replace(&mut self.mode, mode);
+        let region = |m: LawMode| match m {
+            LawMode::Hold => Some(Region::Hold),
+            LawMode::Seek => Some(Region::Seek),
+            LawMode::Fine | LawMode::Coast | LawMode::Settle => Some(Region::Settle),
+            LawMode::Fallback => None,
         };
-        if status.intersects(Status::UPDATED.union(Status::DEAD_ZONE)) {
-            self.eps_mean += (eps.abs() - self.eps_mean) / 32.0;
-        }
-        if status.contains(Status::UPDATED) && !bad {
-            self.trusted_updates += 1;
-        }
-        let distrusted = self.untrusted > 0 || self.eps_mean > d.supervisor.eps_limit_quanta;
-        let previous = self.region;
-        let region = self.select(e, dy2, dr1);
-        self.region = region;
-        if previous == Region::Seek && region == Region::Settle {
-            self.redesign_pending = true;
-        }
-        let gains = match self.gains {
-            Some(g) if !distrusted => g,
-            _ => {
-                if !self.in_fallback {
-                    self.pid.reset();
-                    self.pid.set_enabled(false);
-                    self.pid.set_manual_output_v(self.last_u * fs);
-                }
-                self.in_fallback = true;
-                let u = self.pid.step_quanta(r, y) / fs;
-                self.pid.set_enabled(true);
-                self.last_u = u;
-                self.last_v = self.forward(u);
-                return (u, region, true);
+        if mode == LawMode::Fallback {
+            if previous != LawMode::Fallback {
+                self.pid.reset();
+                self.pid.set_enabled(false);
+                self.pid.set_manual_output_v(self.last_u * fs);
             }
-        };
-        let returning = self.in_fallback;
-        self.in_fallback = false;
+            let u = self.pid.step_quanta(r, y_raw) / fs;
+            self.pid.set_enabled(true);
+            self.last_u = u;
+            self.last_v = self.forward(u);
+            return u;
+        }
         let i_max = d.integrator_limit_v / fs;
         let u_max = d.baseline.u_limit_v / fs;
-        let (terms, integrating) = match region {
-            Region::Hold => {
+        let (terms, integrating, compensate) = match mode {
+            LawMode::Hold => {
+                self.integral = 0.0;
                 let u = d.hold_bias_v / fs;
                 self.last_u = u;
                 self.last_v = self.forward(u);
-                return (u, region, false);
+                return u;
             }
-            Region::Seek => (
-                gains.kp_seek * e
-                    + gains.kd2_seek * (dr2 - dy2)
-                    + gains.kv_ff * dr1
-                    + gains.ka_ff * ar,
+            LawMode::Seek => (
+                g.kp_seek * e + g.kd_seek * (dr1 - self.v_hat) + g.kv_ff * dr1 + g.ka_ff * ar,
                 false,
-            ),
-            Region::Settle => (
-                gains.kp_settle * self.settle_error(e) - gains.kd2_settle * dy2,
                 true,
             ),
+            LawMode::Fine => (g.kp_settle * e - g.kd_settle * self.v_hat, true, false),
+            LawMode::Coast => {
+                self.integral = 0.0;
+                // Damping past a dead zone of l/2 quanta per sample (half what one flicker of
+                // the reading moves v̂ by).
+                let w = g.obs_l / 2.0;
+                let v = -g.kd_settle * (self.v_hat - self.v_hat.clamp(-w, w));
+                let u = v.clamp(-u_max, u_max);
+                self.last_v = self.forward(u);
+                self.last_u = u;
+                return u;
+            }
+            LawMode::Settle | LawMode::Fallback => {
+                (g.kp_settle * e - g.kd_settle * self.v_hat, true, true)
+            }
         };
-        if returning || (region != previous && previous != Region::Hold) {
+        let changed = region(previous) != region(mode);
+        let returning = previous == LawMode::Fallback;
+        if changed && previous == LawMode::Seek && region(mode) == Some(Region::Settle) {
+            self.integral = 0.0;
+        } else if returning || (changed && previous != LawMode::Hold) {
             self.integral = (self.last_v - terms).clamp(-i_max, i_max);
         } else if integrating {
-            let candidate =
-                (self.integral + gains.ki_settle * self.settle_error(e)).clamp(-i_max, i_max);
+            let candidate = (self.integral + g.ki_settle * e).clamp(-i_max, i_max);
             let v = terms + candidate;
             let winding = (v > u_max && candidate > self.integral)
                 || (v < -u_max && candidate < self.integral);
@@ -279,10 +314,10 @@ impl ScheduledF64 {
             self.integral -= self.integral / 16.0;
         }
         let v = terms + self.integral;
-        let u = self.inverse(v).clamp(-u_max, u_max);
-        self.last_v = v;
+        let u = if compensate { self.inverse(v) } else { v }.clamp(-u_max, u_max);
+        self.last_v = if compensate { v } else { self.forward(u) };
         self.last_u = u;
-        (u, region, false)
+        u
     }
 }
 

@@ -2,7 +2,12 @@
 //!
 //! The error here is `e = target − y` in counts (an integer): once the reference has arrived
 //! it equals the controller's error exactly.
-//! The limit cycle is looked at in the last [`LIMIT_CYCLE_WINDOW_FRACTION`] of each dwell.
+//! The limit cycle is looked at in the last [`LIMIT_CYCLE_WINDOW_FRACTION`] of each dwell, and
+//! only once the seek has settled (`|e| ≤ 1` for the rest of it) and the sled's true motion has
+//! first stopped or reversed there: a limit cycle is what the loop does at the target — the
+//! paper's ±1-quantum hunting stays within `|e| ≤ 1` and reverses at every swing, so it is counted
+//! from its first reversal — while a sled too slow to arrive in the first half of the dwell is
+//! still seeking, and its final, monotone approach is not hunting.
 
 use serde::{Deserialize, Serialize};
 
@@ -86,7 +91,15 @@ pub fn seek_stats(twin: &Twin) -> Vec<SeekStats> {
             .max(0);
         let dwell = end.saturating_sub(arrival);
         let window = (dwell as f64 * LIMIT_CYCLE_WINDOW_FRACTION).round() as usize;
-        let window_start = end.saturating_sub(window);
+        let settled = settled_index.map_or(end, |i| seek.start_index + i);
+        // The first stop or reversal of the true motion once settled.
+        let stopped = samples
+            .get(settled..end)
+            .unwrap_or(&[])
+            .windows(3)
+            .position(|w| (w[1].x_m - w[0].x_m) * (w[2].x_m - w[1].x_m) <= 0.0)
+            .map_or(end, |i| settled + i);
+        let window_start = end.saturating_sub(window).max(stopped);
         let window_errors = errors
             .get(window_start.saturating_sub(seek.start_index)..)
             .unwrap_or(&[]);

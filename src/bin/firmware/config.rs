@@ -180,7 +180,7 @@ pub fn design() -> ServoDesign {
         controller,
         velocity,
         wiener: Some(wiener),
-        handover_latency_samples: 1,
+        options: sledid::servo::ServoOptions::default(),
     }
 }
 

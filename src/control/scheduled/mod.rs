@@ -48,7 +48,9 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod observer;
 pub mod regions;
+pub mod rest;
 pub mod supervisor;
 
 use super::compensation::InverseInputMap;
@@ -62,7 +64,9 @@ use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::num::float_bits::from_fixed;
 use crate::num::gain::{LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
 use crate::words::{WordReader, WordWriter, Words};
+use observer::VelocityObserver;
 use regions::{Region, RegionDesign, RegionSelector};
+use rest::NearTarget;
 use supervisor::{DISTRUST, ModelReport, Redesign};
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
@@ -86,11 +90,12 @@ pub struct ScheduledDesign {
     pub prior_model: Option<(f64, f64)>,
     /// Inverse of the identified static input map, if any.
     pub compensation: Option<InverseInputMap>,
-    /// Inverse of the identified Wiener output map `m(x) = x + w·tanh(a·x + c)` (quanta, centred on
-    /// the reference, as the Wiener model of [`crate::ident::nonlinear`] is identified in `sled_loop`):
-    /// in Settle the P and I terms act on the linear state x̂ = m⁻¹(y − r), not on the measured
-    /// error, so the gains placed on the linear model meet a linear plant. Region selection, the
-    /// hold band and the derivative stay on the measured position (quanta of the sensor).
+    /// Inverse of a Wiener output map `m(x) = x + w·tanh(a·x + c)` (quanta, centred on the
+    /// reference, as the paper's Wiener model of [`crate::ident::nonlinear`] identifies it): every
+    /// law — its P and I terms and the velocity observer — acts on the linear position
+    /// x̂ = r + m⁻¹(y − r), not on the reading, so the gains placed on the linear model meet a
+    /// linear plant. Region selection, rest and the hold band stay on the reading (quanta of the
+    /// sensor).
     pub output_map: Option<InverseInputMap>,
 }
 
@@ -102,7 +107,7 @@ impl ScheduledDesign {
             regions: RegionDesign::default(),
             placement: PlacementDesign::default(),
             supervisor: SupervisorDesign::default(),
-            integrator_limit_v: 0.1,
+            integrator_limit_v: 1.0,
             hold_bias_v: 0.0,
             model_na: 1,
             prior_model: None,
@@ -204,9 +209,7 @@ pub struct ScheduledConfig {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ScheduledState {
     y1: i64,
-    y2: i64,
     r1: i64,
-    r2: i64,
     dr1_previous: i32,
     integral_i32f32: i64,
     /// The linear command v of the last sample (before h⁻¹), I32F32.
@@ -220,6 +223,12 @@ pub struct ScheduledState {
     eps_mean: u32,
     trusted_updates: u32,
     redesign_pending: bool,
+    /// Hold's low-passed error, I16F16 raw quanta ([`regions`]).
+    hold_error: i32,
+    /// The velocity observer.
+    observer: VelocityObserver,
+    /// Rest, cell and band bookkeeping near the target.
+    near: NearTarget,
     /// The gains in use: the prior's, then each adopted redesign's.
     gains: ModelGains,
     /// The model was refused (or none accepted yet): the baseline runs.
@@ -236,9 +245,7 @@ impl ScheduledState {
         };
         Self {
             y1: 0,
-            y2: 0,
             r1: 0,
-            r2: 0,
             dr1_previous: 0,
             integral_i32f32: 0,
             last_v_i32f32: 0,
@@ -251,6 +258,9 @@ impl ScheduledState {
             eps_mean: 0,
             trusted_updates: 0,
             redesign_pending: false,
+            hold_error: 0,
+            observer: VelocityObserver::new(),
+            near: NearTarget::new(),
             gains,
             fallback,
         }
@@ -419,25 +429,47 @@ impl ScheduledConfig {
     ) -> ControlOutput {
         let mut flags = ControlFlags::NONE;
         let mut sat = false;
+        let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut sat);
+        // The linear position the laws act on: with a Wiener output map ŷ = m(x) (centred on the
+        // reference), x̂ = r + m⁻¹(y − r), so that gains placed on the linear model meet a linear
+        // plant; without one, y itself. Decisions (regions, rest, band) stay on the reading.
+        let e_lin = self.linear_error(e);
+        let y_lin = r.raw().saturating_sub(i64::from(e_lin));
         if !state.primed {
             state.primed = true;
-            (state.y1, state.y2, state.r1, state.r2) = (y.raw(), y.raw(), r.raw(), r.raw());
+            (state.y1, state.r1) = (y_lin, r.raw());
             state.dr1_previous = 0;
             flags.insert(ControlFlags::FIRST_SAMPLE);
         }
-        let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut sat);
-        let dy2 = sat_i32(y.raw().saturating_sub(state.y2), &mut sat);
-        let dr2 = sat_i32(r.raw().saturating_sub(state.r2), &mut sat);
+        let dy1 = sat_i32(y_lin.saturating_sub(state.y1), &mut sat);
+        let g = state.gains;
+        // The model's input over the last sample: the linear drive, after friction compensation.
+        let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
+        let v_hat = state.observer.update(&g, v_prev, dy1, &mut sat);
         let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
         let ar = dr1.saturating_sub(state.dr1_previous);
-        (state.y2, state.y1, state.r2, state.r1) = (state.y1, y.raw(), state.r1, r.raw());
+        (state.y1, state.r1) = (y_lin, r.raw());
         state.dr1_previous = dr1;
         let distrusted = self.supervise(state, report);
         flags.set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
+        let band = self.selector.hold_band_raw();
+        let verdict = state.near.update(
+            y.raw(),
+            e,
+            state.observer.mean_velocity(),
+            band,
+            g.rest_samples,
+            g.rest_speed_i16f16,
+        );
         let previous = state.region;
-        let region = self.selector.select(previous, e, dy2, dr1);
+        let region =
+            self.selector
+                .select(previous, e, dr1, verdict.holdable, &mut state.hold_error);
         state.region = region;
         let changed = region != previous;
+        if changed {
+            state.near.enter(e, region == Region::Seek);
+        }
         flags.set_if(ControlFlags::REGION_CHANGED, changed);
         if changed && previous == Region::Seek && region == Region::Settle {
             state.redesign_pending = true;
@@ -473,10 +505,13 @@ impl ScheduledConfig {
         }
         let returning = state.in_fallback;
         state.in_fallback = false;
-        let g = state.gains;
         let i_max = self.integrator_limit_i32f32;
-        let (terms, integrating) = match region {
+        let near = verdict.e_filtered.unsigned_abs() <= (band + (band >> 1)).unsigned_abs();
+        let (terms, integrating, compensate) = match region {
             Region::Hold => {
+                // Nothing drives (not even the compensation map's value at 0): static friction
+                // holds the sled; no integrator.
+                state.integral_i32f32 = 0;
                 state.last_u = self.hold_bias;
                 state.last_v_i32f32 = i64::from(self.forward(self.hold_bias)) << 16;
                 flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
@@ -489,20 +524,56 @@ impl ScheduledConfig {
             // Each term < 2^62 in magnitude; four of them are summed saturating.
             Region::Seek => (
                 g.kp_seek
-                    .apply(e)
-                    .saturating_add(g.kd2_seek.apply(dr2.saturating_sub(dy2)))
+                    .apply(e_lin)
+                    .saturating_add(g.kd_seek.apply(dr1.saturating_sub(v_hat)))
                     .saturating_add(g.kv_ff.apply(dr1))
                     .saturating_add(g.ka_ff.apply(ar)),
                 false,
+                true,
             ),
+            // Fine positioning: at rest near the band's edge, the settle law (no compensation: its
+            // step at zero would chatter) moves the sled toward the target cell; its first move
+            // ends the step.
+            Region::Settle if near && state.near.fine_step(&verdict) => {
+                flags.insert(ControlFlags::FINE_STEP);
+                (
+                    g.kp_settle
+                        .apply(e_lin)
+                        .saturating_sub(g.kd_settle.apply(v_hat)),
+                    true,
+                    false,
+                )
+            }
+            Region::Settle if near => {
+                // Coasting into the band: damping only, nothing pushes.
+                flags.insert(ControlFlags::COASTING);
+                state.integral_i32f32 = 0;
+                let v = 0i64.saturating_sub(g.kd_settle.apply(dead_zone(v_hat, g.obs_l)));
+                let u_max = (self.u_limit_i32f32 >> 16) as i32;
+                let u = clamp_sym_i32(sat_i32(shr_round_i64(v, 16), &mut sat), u_max);
+                state.last_u = u;
+                // Uncompensated: the linear drive the sled sees is h(u).
+                state.last_v_i32f32 = i64::from(self.forward(u)) << 16;
+                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
+                return ControlOutput {
+                    u: SignalI16F16::from_raw(u),
+                    region,
+                    flags,
+                };
+            }
             Region::Settle => (
                 g.kp_settle
-                    .apply(self.settle_error(e))
-                    .saturating_sub(g.kd2_settle.apply(dy2)),
+                    .apply(e_lin)
+                    .saturating_sub(g.kd_settle.apply(v_hat)),
+                true,
                 true,
             ),
         };
-        if returning || (changed && previous != Region::Hold) {
+        if changed && previous == Region::Seek && region == Region::Settle {
+            // The seek's terms (feedforward) do not carry over: the settle law starts from the
+            // state (e, v̂) with no stored drive.
+            state.integral_i32f32 = 0;
+        } else if returning || (changed && previous != Region::Hold) {
             let wanted = state.last_v_i32f32.saturating_sub(terms);
             state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
@@ -512,7 +583,7 @@ impl ScheduledConfig {
         } else if integrating {
             let step = integrate(
                 &mut state.integral_i32f32,
-                g.ki_settle.apply(self.settle_error(e)),
+                g.ki_settle.apply(e_lin),
                 terms,
                 i_max,
                 self.u_limit_i32f32,
@@ -520,20 +591,25 @@ impl ScheduledConfig {
             flags.set_if(ControlFlags::INTEGRATOR_LIMITED, step.limited);
             flags.set_if(ControlFlags::INTEGRATION_HELD, step.held);
         } else {
-            // Seek: the transfer term fades with a time constant of 16 samples.
+            // Seek: the integrator fades with a time constant of 16 samples.
             state.integral_i32f32 -= state.integral_i32f32 >> 4;
         }
         let v = terms.saturating_add(state.integral_i32f32);
         let v_i16f16 = sat_i32(shr_round_i64(v, 16), &mut sat);
         let u_raw = match &self.compensation {
-            Some(map) => map.apply(v_i16f16),
-            None => v_i16f16,
+            Some(map) if compensate => map.apply(v_i16f16),
+            _ => v_i16f16,
         };
         let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
         let u = clamp_sym_i32(u_raw, u_max);
         flags.set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
         flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-        state.last_v_i32f32 = v;
+        // The linear drive the sled sees: v, or h(u) where the map was not applied.
+        state.last_v_i32f32 = if compensate {
+            v
+        } else {
+            i64::from(self.forward(u)) << 16
+        };
         state.last_u = u;
         ControlOutput {
             u: SignalI16F16::from_raw(u),
@@ -542,8 +618,8 @@ impl ScheduledConfig {
         }
     }
 
-    /// The Settle law's error: −m⁻¹(y − r) with an output map, else e = r − y (I16F16 raw quanta).
-    fn settle_error(&self, e: i32) -> i32 {
+    /// The laws' error: −m⁻¹(y − r) with an output map, else e = r − y (I16F16 raw quanta).
+    fn linear_error(&self, e: i32) -> i32 {
         self.output_map
             .as_ref()
             .map_or(e, |m| m.apply(e.saturating_neg()).saturating_neg())
@@ -683,4 +759,11 @@ impl Words for ScheduledConfig {
             output_map: <Option<InverseInputMap> as Words>::take(r),
         }
     }
+}
+
+/// `v` less a dead zone of l quanta per sample (what one flicker of the reading moves v̂ by),
+/// I16F16 raw.
+fn dead_zone(v: i32, l: crate::num::gain::Gain) -> i32 {
+    let width = sat_i32(shr_round_i64(l.apply(1 << 16), 16), &mut false) >> 1;
+    v.saturating_sub(v.clamp(-width, width))
 }

@@ -10,11 +10,14 @@
 //! moving  = |r(k) − r(k−1)| > m                          (reference phase)
 //! Seek    ← moving  or  |e| > S_leave
 //! Settle  ← (from Seek)   not moving and |e| ≤ S_enter
-//!           (from Hold)   |e| > H_leave
-//! Hold    ← (from Settle) |e| ≤ H_enter and |y(k) − y(k−2)| ≤ v_H   (at rest inside the band)
+//!           (from Hold)   |e_h| > H_leave,   e_h ← e_h + (e − e_h)/16  (restarted at e on entry)
+//! Hold    ← (from Settle) |e| ≤ H_enter and the sled may be held  (super::rest: at rest, on the
+//!                         target cell or well inside the band)
 //! ```
 //! with `H_enter ≤ H_leave < S_enter ≤ S_leave`: a region is left only across a wider band than
-//! the one it was entered through, so quantisation noise of one quantum cannot make it chatter.
+//! the one it was entered through. Hold is left on the low-passed error e_h, not on a reading: a
+//! sled resting where noise makes the reading flicker into the next cell averages to its true
+//! error, which is inside the band.
 //!
 //! # Formats
 //! Every threshold is an I16F16 raw value in quanta (per sample for m and v_H), compared with the
@@ -72,8 +75,6 @@ pub struct RegionDesign {
     pub hold_enter_quanta: f64,
     /// H_leave: Hold → Settle when |e| > this.
     pub hold_leave_quanta: f64,
-    /// v_H: "at rest" is |y(k) − y(k−2)| ≤ this, quanta.
-    pub hold_speed_quanta: f64,
     /// m: the reference is moving while |r(k) − r(k−1)| > this, quanta per sample.
     pub moving_quanta: f64,
 }
@@ -83,9 +84,8 @@ impl Default for RegionDesign {
         Self {
             settle_enter_quanta: 24.0,
             settle_leave_quanta: 48.0,
-            hold_enter_quanta: 0.0,
-            hold_leave_quanta: 1.0,
-            hold_speed_quanta: 1.0,
+            hold_enter_quanta: 1.0,
+            hold_leave_quanta: 1.5,
             moving_quanta: 0.0,
         }
     }
@@ -99,7 +99,6 @@ pub struct RegionSelector {
     settle_leave: u32,
     hold_enter: u32,
     hold_leave: u32,
-    hold_speed: u32,
     moving: u32,
 }
 
@@ -119,7 +118,6 @@ impl RegionDesign {
             settle_leave: q(self.settle_leave_quanta)?,
             hold_enter: q(self.hold_enter_quanta)?,
             hold_leave: q(self.hold_leave_quanta)?,
-            hold_speed: q(self.hold_speed_quanta)?,
             moving: q(self.moving_quanta)?,
         };
         s.validate()?;
@@ -142,7 +140,6 @@ impl RegionSelector {
             self.settle_leave,
             self.hold_enter,
             self.hold_leave,
-            self.hold_speed,
             self.moving,
         ];
         if let Some(&bad) = all.iter().find(|&&t| t > i32::MAX as u32) {
@@ -162,10 +159,23 @@ impl RegionSelector {
 }
 
 impl RegionSelector {
-    /// The region for this sample from the previous one, the error e = r − y, the two-sample
-    /// position difference y(k) − y(k−2) and the reference increment r(k) − r(k−1) (all I16F16
-    /// raw, quanta).
-    pub fn select(&self, previous: Region, e: i32, dy2: i32, dr1: i32) -> Region {
+    /// H_enter, I16F16 raw (the hold band's half-width).
+    pub fn hold_band_raw(&self) -> i32 {
+        self.hold_enter.min(i32::MAX as u32) as i32
+    }
+
+    /// The region for this sample from the previous one, the error e = r − y and the reference
+    /// increment r(k) − r(k−1) (I16F16 raw, quanta), whether the sled may be held now
+    /// ([`super::rest`]), and Hold's low-passed error `hold_error` (I16F16 raw quanta; updated
+    /// here).
+    pub fn select(
+        &self,
+        previous: Region,
+        e: i32,
+        dr1: i32,
+        holdable: bool,
+        hold_error: &mut i32,
+    ) -> Region {
         let abs_e = e.unsigned_abs();
         if dr1.unsigned_abs() > self.moving || abs_e > self.settle_leave {
             return Region::Seek;
@@ -173,17 +183,24 @@ impl RegionSelector {
         match previous {
             Region::Seek if abs_e <= self.settle_enter => Region::Settle,
             Region::Seek => Region::Seek,
-            Region::Settle if abs_e <= self.hold_enter && dy2.unsigned_abs() <= self.hold_speed => {
+            Region::Settle if abs_e <= self.hold_enter && holdable => {
+                *hold_error = e;
                 Region::Hold
             }
             Region::Settle => Region::Settle,
-            Region::Hold if abs_e > self.hold_leave => Region::Settle,
-            Region::Hold => Region::Hold,
+            Region::Hold => {
+                *hold_error = hold_error.saturating_add(e.saturating_sub(*hold_error) >> 4);
+                if hold_error.unsigned_abs() > self.hold_leave {
+                    Region::Settle
+                } else {
+                    Region::Hold
+                }
+            }
         }
     }
 }
 
-/// Words: settle enter/leave, hold enter/leave, hold speed, moving (I16F16 raw, quanta; validity:
+/// Words: settle enter/leave, hold enter/leave, moving (I16F16 raw, quanta; validity:
 /// [`RegionSelector::validate`]).
 impl Words for RegionSelector {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
@@ -192,26 +209,17 @@ impl Words for RegionSelector {
             self.settle_leave,
             self.hold_enter,
             self.hold_leave,
-            self.hold_speed,
             self.moving,
         ]
         .put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
-        let [
-            settle_enter,
-            settle_leave,
-            hold_enter,
-            hold_leave,
-            hold_speed,
-            moving,
-        ] = <[u32; 6]>::take(r);
+        let [settle_enter, settle_leave, hold_enter, hold_leave, moving] = <[u32; 5]>::take(r);
         Self {
             settle_enter,
             settle_leave,
             hold_enter,
             hold_leave,
-            hold_speed,
             moving,
         }
     }
@@ -223,23 +231,57 @@ mod tests {
 
     const Q: i32 = 1 << 16;
 
+    /// The transitions and their hysteresis; Hold left only on its low-passed error. Trips on a
+    /// swapped threshold, a missing hysteresis, or Hold left on a single flickering reading.
     #[test]
     fn hysteresis_and_phases() {
         let s = RegionDesign::default().build().unwrap();
+        let mut h = 0;
         // A moving reference is a seek whatever the error.
-        assert_eq!(s.select(Region::Hold, 0, 0, 1), Region::Seek);
+        assert_eq!(s.select(Region::Hold, 0, Q, true, &mut h), Region::Seek);
         // Constant reference, 30 quanta: stays in seek (> S_enter) but a settle at 30 stays.
-        assert_eq!(s.select(Region::Seek, 30 * Q, 0, 0), Region::Seek);
-        assert_eq!(s.select(Region::Settle, 30 * Q, 0, 0), Region::Settle);
-        assert_eq!(s.select(Region::Seek, 20 * Q, 0, 0), Region::Settle);
-        assert_eq!(s.select(Region::Settle, 49 * Q, 0, 0), Region::Seek);
-        // Hold needs rest inside the band; it is left beyond H_leave only.
-        assert_eq!(s.select(Region::Settle, 0, 2 * Q, 0), Region::Settle);
-        assert_eq!(s.select(Region::Settle, Q, 0, 0), Region::Settle);
-        assert_eq!(s.select(Region::Settle, 0, -Q, 0), Region::Hold);
-        assert_eq!(s.select(Region::Hold, Q, 3 * Q, 0), Region::Hold);
-        assert_eq!(s.select(Region::Hold, 2 * Q, 0, 0), Region::Settle);
-        assert_eq!(s.select(Region::Hold, i32::MIN, i32::MIN, 0), Region::Seek);
+        assert_eq!(
+            s.select(Region::Seek, 30 * Q, 0, true, &mut h),
+            Region::Seek
+        );
+        assert_eq!(
+            s.select(Region::Settle, 30 * Q, 0, true, &mut h),
+            Region::Settle
+        );
+        assert_eq!(
+            s.select(Region::Seek, 20 * Q, 0, true, &mut h),
+            Region::Settle
+        );
+        assert_eq!(
+            s.select(Region::Settle, 49 * Q, 0, true, &mut h),
+            Region::Seek
+        );
+        // Hold needs a holdable sled inside the band.
+        assert_eq!(
+            s.select(Region::Settle, 0, 0, false, &mut h),
+            Region::Settle
+        );
+        assert_eq!(
+            s.select(Region::Settle, 2 * Q, 0, true, &mut h),
+            Region::Settle
+        );
+        assert_eq!(s.select(Region::Settle, -Q, 0, true, &mut h), Region::Hold);
+        assert_eq!(h, -Q, "e_h restarts at e");
+        // Readings two cells off leave Hold only once e_h crosses 1.5: after 11 readings of −2
+        // from −1 (e_h = −2 + (15/16)^n, floored).
+        for k in 0..10 {
+            let held = s.select(Region::Hold, -2 * Q, 0, false, &mut h);
+            assert_eq!(held, Region::Hold, "reading {k}");
+        }
+        assert_eq!(
+            s.select(Region::Hold, -2 * Q, 0, false, &mut h),
+            Region::Settle
+        );
+        let mut h = 0;
+        assert_eq!(
+            s.select(Region::Hold, i32::MIN, 0, true, &mut h),
+            Region::Seek
+        );
     }
 
     #[test]
