@@ -124,7 +124,8 @@ fn shadow_mode_identifies_from_the_applied_drive() {
     let mut differ = 0;
     for k in 0..2000i64 {
         let r = PositionI48F16::from_counts(if k < 1000 { 0 } else { 40 });
-        let y = PositionI48F16::from_counts((k / 30) % 50);
+        // Moving 3 quanta per sample: above the identifier's speed gate.
+        let y = PositionI48F16::from_counts((3 * k) % 3000);
         let a = cfg.step(&mut normal, r, y);
         let b = cfg.step_shadow(&mut shadow_same, r, y, a.u);
         assert_eq!(a, b, "sample {k}");
@@ -136,7 +137,7 @@ fn shadow_mode_identifies_from_the_applied_drive() {
 
 /// The configuration words (`sledid::words`) of a design with every optional part: both input
 /// maps, a stuck-sensor check, a pole radius on the velocity model, the Wiener model. The largest
-/// word count (185 with the frame, within `SERVO_WORDS_MAX`), decoded into the configuration `build` gives, and
+/// word count (198 with the frame, within `SERVO_WORDS_MAX`), decoded into the configuration `build` gives, and
 /// refused by a buffer one word short.
 #[test]
 fn configuration_words_of_a_full_design_round_trip() {
@@ -167,7 +168,7 @@ fn configuration_words_of_a_full_design_round_trip() {
     let built = design.build().expect("the design builds");
     let mut buf = [0u32; SERVO_WORDS_MAX];
     let n = design.to_words(&mut buf).expect("words");
-    assert_eq!(n, 185);
+    assert_eq!(n, 198);
     assert_eq!(SledServo::from_words(&buf[..n]), Ok(built));
     assert_eq!(
         design.to_words(&mut buf[..n - 1]),

@@ -325,10 +325,10 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 185 (3 of framing, 25 for
-/// the velocity identifier with a stuck-sensor check and a pole radius, 23 for the Wiener model, 1
-/// for L, 133 for the controller with both input maps).
-pub const SERVO_WORDS_MAX: usize = 192;
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 198 (3 of framing, the
+/// velocity identifier with a stuck-sensor check and a pole radius, the Wiener model, the servo's
+/// settings, the controller with both maps; `host-tests/tests/sled_loop.rs` counts them).
+pub const SERVO_WORDS_MAX: usize = 224;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, the Wiener model
