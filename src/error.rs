@@ -68,6 +68,8 @@ pub enum ConfigError {
     StuckSensor(f64),
     /// Covariance limit (trace, diagonal or constant trace) not positive or not finite.
     CovarianceLimit(f64),
+    /// A Coulomb term on a structure other than ARX (its regressor needs the measured output).
+    CoulombTerm,
     /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
     ModelOrder {
         /// Output (denominator) order.
@@ -166,7 +168,11 @@ impl fmt::Display for ConfigError {
             }
             Self::ModelOrder { na, nb, n } => write!(
                 f,
-                "model order na = {na}, nb = {nb}: na + nb must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+                "model order na = {na}, nb = {nb}: na + nb (+ 1 with a Coulomb term) must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+            ),
+            Self::CoulombTerm => write!(
+                f,
+                "coulomb = true: a Coulomb term needs the ARX structure (its regressor is the measured output's sign)"
             ),
             Self::ParameterCount { expected, n } => write!(
                 f,

@@ -17,7 +17,7 @@ fn main() {
     let rows: Vec<String> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let f = ranges.draw(1, i);
+            let f = ranges.draw(std::env::var("FAMILY_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1), i);
             let params = f.twin(&TwinParams::default());
             // Strict prior: the nominal sled in every respect, its quantum included.
             let mut units = params.clone();

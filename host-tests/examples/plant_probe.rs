@@ -12,7 +12,13 @@ fn main() {
         .nth(2)
         .and_then(|s| s.parse().ok())
         .unwrap_or(10);
-    let f = FamilyRanges::default().draw(1, i);
+    let f = FamilyRanges::default().draw(
+        std::env::var("FAMILY_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(1),
+        i,
+    );
     let params = f.twin(&TwinParams::default());
     let mut units = params.clone();
     units.plant.quantum_m = PlantParams::default().quantum_m;
@@ -60,8 +66,22 @@ fn main() {
             }
         }
     }
+    let samples = run.twin.samples();
     for (seek, st) in run.twin.seeks().iter().zip(run.twin.seek_stats()) {
         if st.limit_cycle.pulses > 0 {
+            let end = seek.end_index.unwrap();
+            let n = (st.limit_cycle.window_s / params.plant.ts_s).round() as usize;
+            for k in end - n..end {
+                if samples[k].u_v.abs() > breakaway {
+                    println!(
+                        "  counted pulse k {k} u {:.4} e {} {:?} x-target {:.3}",
+                        samples[k].u_v,
+                        samples[k].target_counts - samples[k].y_counts,
+                        run.trace[k],
+                        samples[k].x_m / params.plant.quantum_m - samples[k].target_counts as f64
+                    );
+                }
+            }
             println!(
                 "seek {}..{:?} step {} pulses {} first-within {:?} settle {:?}",
                 seek.start_index,

@@ -24,10 +24,8 @@
 
 use serde::Serialize;
 use sledid::control::{ControlFlags, InverseInputMap, Redesign, Region, ScheduledDesign};
-use sledid::ident::estimator::Estimate;
-use sledid::ident::nonlinear::NonlinearDesign;
 use sledid::ident::step::IdentifierDesign;
-use sledid::servo::{ServoDesign, ServoOptions, SledServo, SledServoState, WIENER_N};
+use sledid::servo::{ServoDesign, ServoOptions, SledServo, SledServoState, VELOCITY_N};
 use std::path::Path;
 
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
@@ -43,10 +41,11 @@ pub enum ControllerKind {
     Scheduled,
 }
 
-/// The identifier feeding the scheduled controller: the library's
-/// [`sledid::servo::velocity_identifier`], the one the firmware runs too.
-pub fn identifier_design(prior: (f64, f64)) -> IdentifierDesign<2> {
-    sledid::servo::velocity_identifier(prior)
+/// The identifier feeding the scheduled controller `design`: the library's
+/// [`sledid::servo::velocity_identifier`] from the design's prior and the Coulomb level of its
+/// compensation ([`ServoDesign::new`]), the one the firmware runs too.
+pub fn identifier_design(design: &ScheduledDesign) -> IdentifierDesign<VELOCITY_N> {
+    ServoDesign::new(*design).velocity
 }
 
 /// The velocity model (a, b) of a plant from its physics (viscous pole, drive gain; friction
@@ -88,7 +87,7 @@ pub fn scheduled_design_for(
 }
 
 /// The firmware's whole per-sample step ([`sledid::servo`]: scheduled controller, its
-/// velocity identifier, optionally the Wiener model at 2·Ts) behind the twin's controller
+/// velocity identifier) behind the twin's controller
 /// interface; the redesign runs after the sample that requests it, as the firmware's main loop
 /// would before the next interrupt.
 pub struct ScheduledLoop {
@@ -101,36 +100,26 @@ pub struct ScheduledLoop {
     pub trace: Vec<(Region, ControlFlags)>,
     /// Every redesign outcome.
     pub redesigns: Vec<Redesign>,
-    /// The Wiener estimator's output of the last sample (every second sample).
-    pub last_wiener: Option<Estimate>,
 }
 
 impl ScheduledLoop {
-    /// From a design and the identifier's design (no Wiener model).
-    pub fn new(design: &ScheduledDesign, identifier: &IdentifierDesign<2>) -> Result<Self, String> {
-        Self::with_wiener(design, identifier, None)
-    }
-
-    /// As [`Self::new`], with the Wiener model identified beside the controller at 2·Ts.
-    pub fn with_wiener(
+    /// From a design and the identifier's design, the servo's default options.
+    pub fn new(
         design: &ScheduledDesign,
-        identifier: &IdentifierDesign<2>,
-        wiener: Option<NonlinearDesign<WIENER_N>>,
+        identifier: &IdentifierDesign<VELOCITY_N>,
     ) -> Result<Self, String> {
-        Self::with_options(design, identifier, wiener, ServoOptions::default())
+        Self::with_options(design, identifier, ServoOptions::default())
     }
 
-    /// As [`Self::with_wiener`], with the servo's options (hand-over latency, identification).
+    /// As [`Self::new`], with the servo's options (hand-over latency, identification).
     pub fn with_options(
         design: &ScheduledDesign,
-        identifier: &IdentifierDesign<2>,
-        wiener: Option<NonlinearDesign<WIENER_N>>,
+        identifier: &IdentifierDesign<VELOCITY_N>,
         options: ServoOptions,
     ) -> Result<Self, String> {
         let config = ServoDesign {
             controller: *design,
             velocity: *identifier,
-            wiener,
             options,
         }
         .build()
@@ -141,12 +130,11 @@ impl ScheduledLoop {
             u_full_scale_v: design.baseline.u_full_scale_v,
             trace: Vec::new(),
             redesigns: Vec::new(),
-            last_wiener: None,
         })
     }
 
     /// The identifier's θ now.
-    pub fn theta(&self) -> [f64; 2] {
+    pub fn theta(&self) -> [f64; VELOCITY_N] {
         self.state.identifier().model().theta().map(|p| p.to_f64())
     }
 }
@@ -163,7 +151,6 @@ impl SledController for ScheduledLoop {
             self.redesigns.push(design.outcome);
         }
         self.trace.push((out.region, out.control));
-        self.last_wiener = out.wiener;
         out.u.to_f64() * self.u_full_scale_v
     }
 }
@@ -360,9 +347,7 @@ pub fn run_with_options(
             (Vec::new(), Vec::new(), ControllerKind::Baseline)
         }
         Some(design) => {
-            let prior = design.prior_model.unwrap_or((0.8, 20.0));
-            let mut c =
-                ScheduledLoop::with_options(design, &identifier_design(prior), None, options)?;
+            let mut c = ScheduledLoop::with_options(design, &identifier_design(design), options)?;
             twin.set_controller_label("scheduled");
             twin.run(&mut c);
             (c.trace, c.redesigns, ControllerKind::Scheduled)

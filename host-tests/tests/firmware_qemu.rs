@@ -1,6 +1,6 @@
 //! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU, bit-exact with the host
 //! replay of the same recording through the same loop step (`sledid::servo`, shadow mode:
-//! scheduled controller, supervisor, velocity identifier, decimator, Wiener model) and the same
+//! scheduled controller, supervisor, velocity identifier) and the same
 //! redesign rule (`fw_config::replay`).
 //!
 //! - `fixture_is_the_emps_excerpt`: the committed `fixtures/emps_excerpt.bin` is exactly the first

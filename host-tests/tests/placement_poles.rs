@@ -181,7 +181,9 @@ fn run(law: Law, a: f64, b: f64, placement: PlacementDesign, seed: u64) -> (Vec<
     let mut baseline = PidDesign::new(TS_S, FS_V);
     baseline.u_limit_v = 10_000.0 * FS_V; // never saturates here
     let mut design = ScheduledDesign::new(baseline);
+    // The prior's gains are the ones placed here (they run until a model is identified).
     design.placement = placement;
+    design.prior_placement = placement;
     design.prior_model = Some((a, b));
     design.integrator_limit_v = 30_000.0 * FS_V;
     design.supervisor.gain_max = 1_000.0;

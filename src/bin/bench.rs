@@ -317,8 +317,7 @@ impl ScheduledBench {
 }
 
 /// The firmware's whole per-sample step (`sledid::servo`): scheduled controller + supervisor,
-/// ARX(1,1) velocity identifier, two-channel half-band decimator, the Wiener model every second
-/// call (the mean over both phases is the per-sample cost). Same scenario as [`ScheduledBench`].
+/// ARX(1,1) velocity identifier with its Coulomb term. Same scenario as [`ScheduledBench`].
 pub struct LoopBench {
     config: sledid::servo::SledServo,
     state: sledid::servo::SledServoState,
@@ -328,27 +327,17 @@ impl LoopBench {
     /// Builds the scenario.
     pub fn new() -> Option<Self> {
         let controller = ScheduledBench::design()?;
-        let mut velocity_model = LinearDesign::<2>::new(Structure::Arx, 1, 1);
-        velocity_model.theta0 = [-0.8336, 23.66];
+        let mut velocity_model = LinearDesign::<3>::new(Structure::Arx, 1, 1);
+        velocity_model.coulomb = true;
+        velocity_model.theta0 = [-0.8336, 23.66, 0.18];
         velocity_model.rls = rls_design();
         let velocity = sledid::ident::step::IdentifierDesign::new(
             sledid::ident::conditioning::Conditioning::DifferencedOutput,
             velocity_model,
         );
-        let mut wiener = NonlinearDesign::<5>::from_linear(
-            NonlinearStructure::Wiener,
-            &[-0.9, 5.0],
-            InputRanges {
-                u: 0.2,
-                y: 20.0,
-                dy: 2.0,
-            },
-        );
-        wiener.rls = rls_design();
         let config = sledid::servo::ServoDesign {
             controller,
             velocity,
-            wiener: Some(wiener),
             options: sledid::servo::ServoOptions::default(),
         }
         .build()
@@ -538,7 +527,7 @@ mod target {
         FRICTION
     );
     nonlinear_entry!(
-        /// The firmware's whole step: controller, velocity identifier, decimator, Wiener at 2·Ts.
+        /// The firmware's whole step: controller and velocity identifier.
         bench_loop_step,
         LOOP
     );

@@ -2,8 +2,8 @@
 //! (Ts = 0.455 ms); its handler feeds the next sample of a recording embedded in flash (the first
 //! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
 //! ([`sledid::servo::SledServo::step_shadow`]: the scheduled controller and its supervisor
-//! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier and, after the
-//! ÷2 decimator, the Wiener model learn from the recorded drive — configuration in [`fw_config`],
+//! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier learns from
+//! the recorded drive — configuration in [`fw_config`],
 //! decoded at start-up from configuration words the host computed from its design
 //! (`src/bin/firmware/loop_words.rs`, [`sledid::words`]: of the `f64` design only the two RLS
 //! settings are built on the target),
@@ -12,8 +12,8 @@
 //! semihosting), and runs the controller's slow-rate gain redesign (f32) on the job the handler
 //! posts: the handler never waits for it, it adopts the result at the sample the hand-over names
 //! ([`sledid::servo::handover`], [`fw_config`]'s redesign rule). At the end it prints the
-//! result line (sample and update counts, redesign outcomes, the checksum, the final θ of both
-//! estimators), the stack high-water mark, and exits through semihosting;
+//! result line (sample and update counts, redesign outcomes, the checksum, the identifier's final
+//! θ), the stack high-water mark, and exits through semihosting;
 //! `host-tests/tests/firmware_qemu.rs` runs it under QEMU for both targets and asserts the result
 //! is bit-exact with the host replay of the same fixture.
 //!
@@ -33,7 +33,7 @@
 //! `sledid_fw_bench_step` (one sample as the interrupt does it: loop step and checksum, on record
 //! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_loop` (the loop step alone),
 //! `sledid_fw_bench_settle` (the loop step with the reference moved into the settle band, where
-//! the Wiener estimator adapts too: the worst case) and
+//! the controller settles and holds: the worst case) and
 //! `sledid_fw_bench_overhead` (the same scaffolding without either, to subtract). The bench run
 //! never redesigns (the redesign is outside the interrupt): its gains stay those of the prior.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -330,7 +330,7 @@ mod target {
             return false;
         };
         defmt::println!(
-            "sledid-fw: scheduled controller (EMPS cascade PID baseline) + ARX(1,1) velocity + Wiener at 2Ts, \
+            "sledid-fw: scheduled controller (EMPS cascade PID baseline) + ARX(1,1) velocity, \
              shadow mode; {=usize} EMPS samples (quantum {=f64} m, u full scale {=f64} V); \
              SysTick every {=u32} ns, reload {=u32} at {=u32} Hz",
             FIXTURE_SAMPLES,
@@ -380,17 +380,15 @@ mod target {
         let s = finished.summary;
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
-            "{=str} samples={=u32} updates={=u32} wiener_updates={=u32} redesigns={} fallback={=bool} \
-             checksum={=u64:#018x} theta={} wiener={}",
+            "{=str} samples={=u32} updates={=u32} redesigns={} fallback={=bool} \
+             checksum={=u64:#018x} theta={}",
             RESULT_PREFIX,
             s.samples,
             s.updates,
-            s.wiener_updates,
             s.redesigns,
             s.fallback,
             s.checksum,
-            s.theta_raw,
-            s.wiener_raw
+            s.theta_raw
         );
         defmt::println!(
             "telemetry: {=u32} received, {=u32} dropped; {=u32} redesigns; \
@@ -505,7 +503,7 @@ mod target {
         }
 
         /// The full loop step alone ([`fw_config::loop_step`]: controller, supervisor, velocity
-        /// identifier, decimator, Wiener estimator; no checksum) on record `i mod FIXTURE_SAMPLES`.
+        /// identifier; no checksum) on record `i mod FIXTURE_SAMPLES`.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_loop(i: u32) -> u32 {
@@ -515,11 +513,10 @@ mod target {
             })
         }
 
-        /// The full loop step in the settle band, where every estimator adapts: the drive of
+        /// The full loop step in the settle band: the drive of
         /// record `i mod FIXTURE_SAMPLES`, a still reference r = 300 quanta and a measurement
-        /// within ±2 quanta of it (`y = r + (7i mod 5) − 2`), so the controller settles or holds
-        /// and the Wiener estimator (held during seeks, i.e. on the whole EMPS excerpt) updates on
-        /// every second sample. The worst case of the interrupt's cost; its outputs mean nothing.
+        /// within ±2 quanta of it (`y = r + (7i mod 5) − 2`), so the controller settles or holds.
+        /// Its outputs mean nothing.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_settle(i: u32) -> u32 {

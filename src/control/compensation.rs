@@ -67,11 +67,22 @@ impl InverseInputMap {
     /// [`ConfigError::CompensationMap`] when `range_fs` is not in (0, 16384) or h is not increasing
     /// over the table (then it has no inverse: |w·a| > 1).
     pub fn from_neuron(neuron: &Neuron, range_fs: f64) -> Result<Self, ConfigError> {
-        let bad = ConfigError::CompensationMap(range_fs);
-        let range = match SignalI16F16::from_f64(range_fs) {
-            Ok(r) if r.raw() > 0 && range_fs < 16_384.0 => r.raw(),
-            _ => return Err(bad),
-        };
+        match SignalI16F16::from_f64(range_fs) {
+            Ok(r) if r.raw() > 0 && range_fs < 16_384.0 => Self::from_neuron_raw(neuron, r.raw()),
+            _ => Err(ConfigError::CompensationMap(range_fs)),
+        }
+    }
+
+    /// [`Self::from_neuron`] over ±`range` (I16F16 raw, in (0, 2³⁰)): integer arithmetic only, for
+    /// a redesign on a core without a double-precision FPU.
+    ///
+    /// # Errors
+    /// As [`Self::from_neuron`].
+    pub fn from_neuron_raw(neuron: &Neuron, range: i32) -> Result<Self, ConfigError> {
+        let bad = ConfigError::CompensationMap(from_fixed(i64::from(range), 16));
+        if !(range > 0 && range < 1 << 30) {
+            return Err(bad);
+        }
         // Smallest step 2^s with 2^K·2^s ≥ 2·range.
         let mut shift = 0;
         while (1i64 << (shift + MAP_INTERVALS_LOG2)) < 2 * i64::from(range) {
@@ -169,6 +180,32 @@ impl InverseInputMap {
             ParamI12F20::ZERO,
         );
         Self::from_neuron(&neuron, range_fs)
+    }
+
+    /// [`Self::coulomb`] from an identified Coulomb level `coulomb_i16f16` (full scale, I16F16
+    /// raw, > 0): w = −u_c, a = 0.9/u_c, over ±`range` (I16F16 raw) — integer arithmetic only
+    /// (the redesign's, outside the interrupt).
+    ///
+    /// # Errors
+    /// [`ConfigError::CompensationMap`] for a level that is not positive or makes `a` leave the
+    /// I12F20 range, or the errors of [`Self::from_neuron_raw`].
+    pub fn coulomb_raw(coulomb_i16f16: i32, range: i32) -> Result<Self, ConfigError> {
+        let bad = ConfigError::CompensationMap(from_fixed(i64::from(coulomb_i16f16), 16));
+        if coulomb_i16f16 <= 0 {
+            return Err(bad);
+        }
+        // w = −u_c in I12F20 (×16); a = 0.9/u_c in I12F20: 0.9·2²⁰·2¹⁶ / raw.
+        let w = i64::from(coulomb_i16f16) << 4;
+        let a = (943_718i64 << 16) / i64::from(coulomb_i16f16); // 0.9·2²⁰ = 943,718
+        if w > i64::from(i32::MAX) || a > i64::from(i32::MAX) {
+            return Err(bad);
+        }
+        let neuron = Neuron::new(
+            ParamI12F20::from_raw(-(w as i32)),
+            ParamI12F20::from_raw(a as i32),
+            ParamI12F20::ZERO,
+        );
+        Self::from_neuron_raw(&neuron, range)
     }
 
     /// u = h⁻¹(v), I16F16 raw in and out; never panics.

@@ -30,8 +30,10 @@
 //!
 //! # Supervisor checks (indirect STR safety net)
 //! A model is refused — and the controller falls back to the baseline gains — when the pole is
-//! complex or outside `[pole_min, pole_max]`, when b has the wrong sign (a reversed sensor or
-//! drive) or lies outside `[gain_min, gain_max]`, or when a gain does not fit the [`Gain`] format.
+//! complex, at or below −1 or above 1, when b has the wrong sign (a reversed sensor or drive) or
+//! lies outside `[gain_min, gain_max]`, or when a gain does not fit the [`Gain`] format. A pole in
+//! (−1, pole_min) is projected up to pole_min (same DC gain), one in (pole_max, 1] down to
+//! pole_max (same b).
 
 use super::ConfigError;
 use crate::num::fixed::ParamI12F20;
@@ -78,7 +80,10 @@ pub struct SupervisorDesign {
     /// positive; a negative estimate is the bias of first-differenced quantisation noise on a fast
     /// plant). An estimate at or below −1 is refused.
     pub pole_min: f64,
-    /// Largest accepted velocity pole a (< 1: a stable velocity model).
+    /// Largest velocity pole a placed from (< 1): an estimate in (pole_max, 1] — a heavy sled with
+    /// little damping, whose pole the quantised data cannot tell from 1 — is projected down to
+    /// it, keeping b (the gain the closed loop's bandwidth meets); one above 1 (an unstable
+    /// velocity model) is refused.
     pub pole_max: f64,
     /// Smallest accepted b, quanta per sample per full scale (> 0: the sign check).
     pub gain_min: f64,
@@ -94,7 +99,7 @@ impl Default for SupervisorDesign {
     fn default() -> Self {
         Self {
             pole_min: 0.0,
-            pole_max: 0.98,
+            pole_max: 0.995,
             gain_min: 1.0,
             gain_max: 1000.0,
             eps_limit_quanta: 8.0,
@@ -179,6 +184,9 @@ pub struct VelocityModel {
     pub a: f32,
     /// Gain b, quanta per sample per full scale.
     pub b: f32,
+    /// Coulomb friction u_c the drive loses while the sled moves, fraction of full scale (0
+    /// where the model has no Coulomb term).
+    pub coulomb_fs: f32,
 }
 
 /// The quantised gains of the seek and settle laws (`Copy`). Each acts on an I16F16 signal in
@@ -293,13 +301,16 @@ pub fn reduce(
         }
         _ => return Err(Rejection::ModelOrder),
     };
-    if !(a.is_finite() && a > -1.0 && f64::from(a) <= limits.pole_max) {
+    if !(a.is_finite() && a > -1.0 && a <= 1.0) {
         return Err(Rejection::PoleOutside(a));
     }
     let floor = limits.pole_min as f32;
+    let ceiling = limits.pole_max as f32;
     let (a, b) = if a < floor {
         // Same DC gain b/(1 − a): b' = b·(1 − floor)/(1 − a), 1 − a > 0.
         (floor, b * (1.0 - floor) / (1.0 - a))
+    } else if a > ceiling {
+        (ceiling, b)
     } else {
         (a, b)
     };
@@ -309,7 +320,11 @@ pub fn reduce(
     if f64::from(b) < limits.gain_min || f64::from(b) > limits.gain_max {
         return Err(Rejection::GainRange(b));
     }
-    Ok(VelocityModel { a, b })
+    Ok(VelocityModel {
+        a,
+        b,
+        coulomb_fs: 0.0,
+    })
 }
 
 /// The seek and settle gains placing the poles of [`PlacementDesign`] for `model`.
@@ -318,7 +333,7 @@ pub fn reduce(
 /// [`Rejection::GainFormat`] when a gain does not fit [`Gain`].
 #[allow(clippy::float_arithmetic)] // slow-rate design, not the per-sample path
 pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelGains, Rejection> {
-    let VelocityModel { a, b } = model;
+    let VelocityModel { a, b, .. } = model;
     let ps = placement.seek_pole as f32;
     let pz = placement.settle_pole as f32;
     let (s1, s2, s3) = (3.0 * pz, 3.0 * pz * pz, pz * pz * pz);
@@ -510,12 +525,28 @@ mod tests {
         // l ≥ l_min) and the rest settings.
         let d = PlacementDesign::default();
         for (a, l) in [(0.83f32, 1.0 - 0.5 / 0.83f64), (0.3, 0.25), (0.05, 0.25)] {
-            let g = place(VelocityModel { a, b: 23.7 }, &d).unwrap();
+            let g = place(
+                VelocityModel {
+                    a,
+                    b: 23.7,
+                    coulomb_fs: 0.0,
+                },
+                &d,
+            )
+            .unwrap();
             assert!((g.obs_l.to_f64() - l).abs() < 1e-6, "{a}");
             assert!(g.obs_a.to_f64() <= d.observer_pole + 1e-6, "{a}");
             assert!((g.obs_b.to_f64() - (1.0 - l) * 23.7).abs() < 1e-4);
         }
-        let slow = place(VelocityModel { a: 0.97, b: 5.0 }, &d).unwrap();
+        let slow = place(
+            VelocityModel {
+                a: 0.97,
+                b: 5.0,
+                coulomb_fs: 0.0,
+            },
+            &d,
+        )
+        .unwrap();
         assert_eq!(slow.rest_samples, 65); // ⌈2·0.97/0.03⌉
         assert!(slow.rest_speed_i16f16 < (0.3 * 0.03 / 0.97 * 65_536.0) as i32 + 2);
         for bad in [

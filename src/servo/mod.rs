@@ -1,21 +1,21 @@
-//! The servo: the firmware's whole per-sample step — a position controller, the on-line
-//! identifier it is designed from, and the paper's best model identified beside them at half the
-//! rate — one function, called by the firmware's timer interrupt, by `sledid control`'s closed
-//! loop on the twin, and by the bench image.
+//! The servo: the firmware's whole per-sample step — a position controller and the on-line
+//! identifier it is designed from — one function, called by the firmware's timer interrupt, by
+//! `sledid control`'s closed loop on the twin, and by the bench image.
 //!
 //! # One sample k (positions in quanta, u in full scale)
 //! ```text
 //! hand-over: a redesign due at k is adopted (or, not delivered, dropped and flagged)   handover
 //! u(k)      = controller(r(k), y(k), report(k−1))           any crate::control::Controller
-//! report(k) = identifier(y(k), u(k), r(k))                  any crate::ident::step::Identifier
-//! (y_c, u)  → half-band ÷2 (y_c = y − r)                    crate::ident::decimate, two channels
-//! every 2nd sample: Wiener(y_c↓2, u↓2)                      crate::ident::nonlinear, adapting in Settle/Hold only
+//! report(k) = identifier(y(k), u(k), r(k))                  any crate::ident::step::Identifier,
+//!                                                           adapting only while the sled moves
 //! the controller asks for a redesign → a job posted, due at k + L
 //! ```
 //! The paper's conclusion is that different models belong to different parts of a step response:
-//! the velocity ARX model drives the seek/settle gains (it is what pole placement needs), while the
-//! Wiener model — the paper's best, after down-sampling by 2 — learns the settle dynamics around
-//! the reference, where it is valid, so its estimator is held during seeks (it still simulates).
+//! the velocity model identified while the sled moves (where the data are informative) places the
+//! seek and settle laws, whose regions switch per sample; near the target the controller works
+//! from rest, cell and band rules on the readings (`crate::control::scheduled::rest`). The paper's
+//! nonlinear models (eq. 5–7, Wiener) run beside a recording in `replay` and the study, not in the
+//! interrupt: nothing in the loop would read them.
 //!
 //! # Configuration and state
 //! [`ServoConfig`] is validated and immutable while the loop runs; everything the loop changes —
@@ -35,10 +35,7 @@ use crate::control::{
 };
 use crate::error::ConfigError;
 use crate::ident::conditioning::Conditioning;
-use crate::ident::decimate::{DecimatorConfig, DecimatorState};
-use crate::ident::estimator::Estimate;
 use crate::ident::linear::{LinearConfig, LinearDesign, Structure};
-use crate::ident::nonlinear::{NonlinearConfig, NonlinearDesign, NonlinearState};
 use crate::ident::rls::{AntiWindup, RlsDesign};
 use crate::ident::step::{Identifier, IdentifierConfig, IdentifierDesign, StepOutput};
 use crate::num::boundary::{PositionI48F16, Sample};
@@ -50,12 +47,10 @@ pub mod handover;
 
 pub use handover::{Handover, HandoverEvent, Posted, Ticket};
 
-/// Parameters of the controller's identifier (ARX(1,1) on velocity).
-pub const VELOCITY_N: usize = 2;
-/// Parameters of the first-order Wiener model.
-pub const WIENER_N: usize = 5;
+/// Parameters of the controller's identifier (ARX(1,1) on velocity with a Coulomb term).
+pub const VELOCITY_N: usize = 3;
 
-/// The product's identifier: ARX(1,1) on the velocity.
+/// The product's identifier: ARX(1,1) with a Coulomb term on the velocity.
 pub type VelocityIdentifier = IdentifierConfig<VELOCITY_N, LinearConfig<VELOCITY_N>>;
 
 /// The product's servo: the scheduled controller on the velocity identifier.
@@ -74,8 +69,6 @@ pub struct ServoDesign {
     pub controller: ScheduledDesign,
     /// The identifier the controller's gains are placed from.
     pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
-    /// The Wiener model at 2·Ts on the centred position (`None`: not run).
-    pub wiener: Option<NonlinearDesign<WIENER_N>>,
     /// The servo's own settings (hand-over latency, identification).
     pub options: ServoOptions,
 }
@@ -176,15 +169,19 @@ impl Words for ServoSettings {
     }
 }
 
-/// The controller's identifier as the servo expects it: ARX(1, 1) on the velocity Δy against u
-/// (the first-order velocity model `crate::control::placement` places gains from), started from
-/// the velocity model `prior` = (a, b), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100,
-/// outlier gate 40 quanta per sample (16 in a row).
+/// The controller's identifier as the servo expects it: ARX(1, 1) with a Coulomb term on the
+/// velocity Δy against u, `Δy(k) = a·Δy(k−1) + b·u(k−1) − c·sign(Δy(k−1))` (the first-order
+/// velocity model `crate::control::placement` places gains from, and the friction c = b·u_c the
+/// compensation is built from), started from the velocity model `prior` = (a, b) and the Coulomb
+/// level `coulomb_fs` (fraction of full scale), λ = 0.995, P₀ = 10·I, dead zone ¼ quantum,
+/// trace(P) ≤ 100, outlier gate 40 quanta per sample (16 in a row).
 pub fn velocity_identifier(
     prior: (f64, f64),
+    coulomb_fs: f64,
 ) -> IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>> {
     let mut model = LinearDesign::<VELOCITY_N>::new(Structure::Arx, 1, 1);
-    model.theta0 = [-prior.0, prior.1];
+    model.coulomb = true;
+    model.theta0 = [-prior.0, prior.1, prior.1 * coulomb_fs];
     model.rls = RlsDesign {
         lambda: 0.995,
         p0: 10.0,
@@ -202,8 +199,6 @@ pub fn velocity_identifier(
 pub struct ServoConfig<C, I> {
     controller: C,
     identifier: I,
-    wiener: Option<NonlinearConfig<WIENER_N>>,
-    decimator: DecimatorConfig,
     settings: ServoSettings,
 }
 
@@ -218,9 +213,6 @@ pub struct ServoState<C: Controller, I: Identifier> {
     last_y: PositionI48F16,
     y1: i64,
     y2: i64,
-    wiener: Option<NonlinearState<WIENER_N>>,
-    decimate_y: DecimatorState,
-    decimate_u: DecimatorState,
     handover: Handover<C::Job, C::Design>,
 }
 
@@ -262,18 +254,23 @@ pub struct ServoOutput<O> {
     pub servo: ServoFlags,
     /// The identifier's output (for the velocity identifier: ŷ, ε, θ, status).
     pub identifier: O,
-    /// The Wiener estimator's output, on every second sample.
-    pub wiener: Option<Estimate>,
 }
 
 impl ServoDesign {
     /// The default servo around `controller`: the velocity identifier from the controller's
-    /// prior (or a = 0.8, b = 20 without one), no Wiener model, L = 1.
+    /// prior (or a = 0.8, b = 20 without one) and the Coulomb level of its compensation (−w of
+    /// the map's neuron, the drive it loses at speed; 0 without one), the default options.
     pub fn new(controller: ScheduledDesign) -> Self {
+        let coulomb_fs = controller
+            .compensation
+            .map_or(0.0, |m| -m.neuron().w().to_f64())
+            .max(0.0);
         Self {
-            velocity: velocity_identifier(controller.prior_model.unwrap_or((0.8, 20.0))),
+            velocity: velocity_identifier(
+                controller.prior_model.unwrap_or((0.8, 20.0)),
+                coulomb_fs,
+            ),
             controller,
-            wiener: None,
             options: ServoOptions::default(),
         }
     }
@@ -281,22 +278,22 @@ impl ServoDesign {
     /// Validates and quantises every part.
     ///
     /// # Errors
-    /// The first part's [`ConfigError`].
+    /// The first part's [`ConfigError`], or [`ConfigError::CoulombTerm`] /
+    /// [`ConfigError::ModelOrder`] when the controller reads θ otherwise than the identifier
+    /// writes it.
     pub fn build(&self) -> Result<SledServo, ConfigError> {
-        Ok(ServoConfig::new(
+        let config = ServoConfig::new(
             self.controller.build()?,
             self.velocity.build()?,
-            match &self.wiener {
-                Some(w) => Some(w.build()?),
-                None => None,
-            },
             self.options.build()?,
-        ))
+        );
+        config.check_model()?;
+        Ok(config)
     }
 
     /// Builds every part and writes the configuration words ([`crate::words`]) into `out`: the
-    /// velocity identifier's ([`IdentifierDesign::put_words`]), the Wiener model's if any (a
-    /// `bool`, then [`NonlinearDesign::put_words`]), L, then the controller's
+    /// velocity identifier's ([`IdentifierDesign::put_words`]), the servo's settings, then the
+    /// controller's
     /// ([`ScheduledConfig`]; last, so that [`ServoConfig::from_words`] can decode the largest part
     /// straight into its result instead of into a copy on the stack). Returns the number of words
     /// written.
@@ -314,10 +311,6 @@ impl ServoDesign {
             e => e,
         };
         self.velocity.put_words(&mut w).map_err(at)?;
-        self.wiener.is_some().put(&mut w).map_err(at)?;
-        if let Some(wiener) = &self.wiener {
-            wiener.put_words(&mut w).map_err(at)?;
-        }
         built.settings.put(&mut w).map_err(at)?;
         built.controller.put(&mut w).map_err(at)?;
         let payload_len = w.len();
@@ -325,25 +318,18 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 198 (3 of framing, the
-/// velocity identifier with a stuck-sensor check and a pole radius, the Wiener model, the servo's
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 180 (3 of framing, the
+/// velocity identifier with a stuck-sensor check and a pole radius, the servo's
 /// settings, the controller with both maps; `host-tests/tests/sled_loop.rs` counts them).
-pub const SERVO_WORDS_MAX: usize = 224;
+pub const SERVO_WORDS_MAX: usize = 192;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
-    /// Composes a servo from built parts: any controller on any identifier, the Wiener model
-    /// beside them if given, with the servo's own settings.
-    pub fn new(
-        controller: C,
-        identifier: I,
-        wiener: Option<NonlinearConfig<WIENER_N>>,
-        settings: ServoSettings,
-    ) -> Self {
+    /// Composes a servo from built parts: any controller on any identifier, with the servo's own
+    /// settings.
+    pub fn new(controller: C, identifier: I, settings: ServoSettings) -> Self {
         Self {
             controller,
             identifier,
-            wiener,
-            decimator: DecimatorConfig::HALF_BAND_23,
             settings,
         }
     }
@@ -358,9 +344,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             last_y: PositionI48F16::default(),
             y1: 0,
             y2: 0,
-            wiener: self.wiener.as_ref().map(NonlinearConfig::new_state),
-            decimate_y: self.decimator.new_state(),
-            decimate_u: self.decimator.new_state(),
             handover: Handover::new(),
         }
     }
@@ -470,21 +453,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             None => self.identifier.reject(&mut state.identifier),
         };
         state.report = I::report(&identified);
-        let mut wiener = None;
-        if let (Some(cfg), Some(st)) = (&self.wiener, state.wiener.as_mut()) {
-            let mut sat = false;
-            let y_c = y.offset_from(r, &mut sat);
-            let dy = self.decimator.push(&mut state.decimate_y, y_c);
-            let du = self.decimator.push(&mut state.decimate_u, u_plant);
-            if let (Some(dy), Some(du)) = (dy, du) {
-                st.set_enabled(out.region != Region::Seek);
-                let mut e = cfg.step(st, dy.y, du.y);
-                e.status |= dy.status | du.status;
-                e.status
-                    .set_if(crate::ident::status::Status::SATURATED, sat);
-                wiener = Some(e);
-            }
-        }
         if state.handover.is_free() {
             let theta = self.identifier.theta(&state.identifier);
             if let Some(job) = self.controller.redesign_job(&mut state.controller, theta) {
@@ -501,7 +469,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             control: out.flags,
             servo,
             identifier: identified,
-            wiener,
         }
     }
 }
@@ -537,11 +504,6 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
     pub fn identifier(&self) -> &I::State {
         &self.identifier
     }
-
-    /// The Wiener estimator's state, if it runs.
-    pub fn wiener(&self) -> Option<&NonlinearState<WIENER_N>> {
-        self.wiener.as_ref()
-    }
 }
 
 impl<C: Controller, I: Identifier> Clone for ServoState<C, I>
@@ -558,9 +520,6 @@ where
             last_y: self.last_y,
             y1: self.y1,
             y2: self.y2,
-            wiener: self.wiener.clone(),
-            decimate_y: self.decimate_y.clone(),
-            decimate_u: self.decimate_u.clone(),
             handover: self.handover,
         }
     }
@@ -609,17 +568,11 @@ impl SledServo {
         let payload = crate::words::open(words)?;
         let mut r = WordReader::new(payload);
         let identifier = IdentifierConfig::take_words(&mut r)?;
-        let wiener = match bool::take(&mut r) {
-            true => Some(NonlinearConfig::take_words(&mut r)?),
-            false => None,
-        };
         let settings = ServoSettings::take(&mut r);
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
             identifier,
-            wiener,
-            decimator: DecimatorConfig::HALF_BAND_23,
             settings,
         });
         let done = r
@@ -643,9 +596,27 @@ impl SledServo {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.settings.validate()?;
         self.identifier.validate()?;
-        if let Some(w) = &self.wiener {
-            w.validate()?;
+        self.controller.validate()?;
+        self.check_model()
+    }
+
+    /// The controller reads θ as the identifier writes it: the same na, a Coulomb term on both
+    /// or neither.
+    ///
+    /// # Errors
+    /// [`ConfigError::CoulombTerm`] or [`ConfigError::ModelOrder`].
+    fn check_model(&self) -> Result<(), ConfigError> {
+        let model = self.identifier.model();
+        if model.coulomb() != self.controller.model_coulomb() {
+            return Err(ConfigError::CoulombTerm);
         }
-        self.controller.validate()
+        if model.na() != self.controller.model_na() {
+            return Err(ConfigError::ModelOrder {
+                na: self.controller.model_na(),
+                nb: 1,
+                n: VELOCITY_N,
+            });
+        }
+        Ok(())
     }
 }

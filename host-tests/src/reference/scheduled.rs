@@ -67,8 +67,9 @@ pub fn place_f64(a: f64, b: f64, p: &PlacementDesign) -> GainsF64 {
     }
 }
 
-/// θ = [a₁ … a_na, b…] → (a, b) with the supervisor's checks and the projection of a pole below
-/// `pole_min` up to it (same DC gain); `None` when refused.
+/// θ = [a₁ … a_na, b…] → (a, b) with the supervisor's checks, the projection of a pole below
+/// `pole_min` up to it (same DC gain) and of one in (`pole_max`, 1] down to it (same b); `None`
+/// when refused.
 pub fn reduce_f64(theta: &[f64], na: usize, design: &ScheduledDesign) -> Option<(f64, f64)> {
     let s = &design.supervisor;
     let b_sum: f64 = theta.iter().skip(na).sum();
@@ -85,11 +86,13 @@ pub fn reduce_f64(theta: &[f64], na: usize, design: &ScheduledDesign) -> Option<
             (a, (1.0 - a) * b_sum / (1.0 + a1 + a2))
         }
     };
-    if !(a > -1.0 && a <= s.pole_max) {
+    if !(a > -1.0 && a <= 1.0) {
         return None;
     }
     let (a, b) = if a < s.pole_min {
         (s.pole_min, b * (1.0 - s.pole_min) / (1.0 - a))
+    } else if a > s.pole_max {
+        (s.pole_max, b)
     } else {
         (a, b)
     };
@@ -161,7 +164,7 @@ impl ScheduledF64 {
         design.build()?;
         let gains = design
             .prior_model
-            .map(|(a, b)| place_f64(a, b, &design.placement));
+            .map(|(a, b)| place_f64(a, b, &design.prior_placement));
         let wac = |m: sledid::control::InverseInputMap| {
             let n = m.neuron();
             (n.w().to_f64(), n.a().to_f64(), n.c().to_f64())
@@ -204,11 +207,27 @@ impl ScheduledF64 {
         self.gains
     }
 
-    /// An accepted redesign: gains placed (f64) from θ; a refusal (`None` from [`reduce_f64`])
-    /// keeps the gains (the fixed-point controller then runs its fallback, which the mode says).
+    /// An accepted redesign: gains placed (f64) from θ = [a…, b… (, c)]; with
+    /// `identify_friction`, the input map of the Coulomb level u_c = c/Σb (none below
+    /// `MIN_COULOMB_FS`, capped at `MAX_COULOMB_FS`). A refusal (`None` from [`reduce_f64`]) keeps
+    /// everything (the fixed-point controller then runs its fallback, which the mode says).
     pub fn adopt(&mut self, theta: &[f64]) {
-        if let Some((a, b)) = reduce_f64(theta, self.design.model_na, &self.design) {
-            self.gains = Some(place_f64(a, b, &self.design.placement));
+        let d = &self.design;
+        let (linear, c) = match (d.model_coulomb, theta.split_last()) {
+            (true, Some((c, linear))) => (linear, *c),
+            _ => (theta, 0.0),
+        };
+        if let Some((a, b)) = reduce_f64(linear, d.model_na, d) {
+            self.gains = Some(place_f64(a, b, &d.placement));
+            if d.identify_friction {
+                let b_sum: f64 = linear.iter().skip(d.model_na).sum();
+                let u_c = c / b_sum;
+                self.map =
+                    (u_c >= f64::from(sledid::control::scheduled::MIN_COULOMB_FS)).then(|| {
+                        let u_c = u_c.min(f64::from(sledid::control::scheduled::MAX_COULOMB_FS));
+                        (-u_c, 0.9 / u_c, 0.0)
+                    });
+            }
         }
     }
 
@@ -319,6 +338,24 @@ impl ScheduledF64 {
         self.last_u = u;
         u
     }
+}
+
+/// The largest |h⁻¹(v) − table(v)| of a fixed-point input map against the exact inverse of its
+/// own neuron (bisection in f64), full scale, over v ∈ ±(2·range of the table's grid) on 8,001
+/// points: what the table's linear interpolation (and its constant tail) costs.
+pub fn map_table_error(map: &sledid::control::InverseInputMap) -> f64 {
+    let n = map.neuron();
+    let wac = Some((n.w().to_f64(), n.a().to_f64(), n.c().to_f64()));
+    let (v0, step, _) = map.grid();
+    let span = 2.0 * f64::from(v0).abs() / 65_536.0 + f64::from(step) / 65_536.0;
+    (-4000..=4000)
+        .map(|i| {
+            let v = f64::from(i) * span / 4000.0;
+            let raw = (v * 65_536.0).round() as i32;
+            let v = f64::from(raw) / 65_536.0;
+            (f64::from(map.apply(raw)) / 65_536.0 - inverse_of(wac, v)).abs()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// x + w·tanh(a·x + c) (the identity without a map).

@@ -11,10 +11,10 @@
 //! # The step: the whole loop in shadow mode
 //! Each record goes through [`sledid::servo::SledServo::step_shadow`]`(r, y, u_recorded)`:
 //! the gain-scheduled controller (with its supervisor) computes its drive beside the rig's own
-//! controller (returned and checksummed, not applied: QEMU has no plant), its ARX(1,1) velocity
-//! identifier and the Wiener model at 2·Ts (after the two-channel half-band ÷2 decimator) learn
-//! from the recorded drive, the one that explains y. This is the full step of issue 6's budget
-//! line (controller + ARX estimator + Wiener estimator + decimator + supervisor).
+//! controller (returned and checksummed, not applied: QEMU has no plant), and its ARX(1,1)
+//! velocity identifier learns from the recorded drive, the one that explains y. This is the
+//! servo's whole step (controller + ARX estimator + supervisor); the paper's Wiener model is not
+//! in the interrupt (nothing in the loop reads it: `sledid::servo`).
 //!
 //! The firmware used to run an EMPS ARX(2,2) identifier on increments; it is folded into the
 //! loop, not kept beside it: the loop's ARX(1,1) velocity identifier is the ARX estimator of the
@@ -55,10 +55,8 @@
 //! | 4 × 4 | velocity identifier: y, u, ŷ, ε (`i32` raw each) |
 //! | 2 × 4 | velocity identifier θ = [a₁, b₁] (`i32` raw I12F20) |
 //! | 2 | velocity identifier status bits (`u16`) |
-//! | 1 | 1 if the Wiener estimator ran on this sample (every second sample), else 0 |
-//! | 4 + 4 + 2 | only when it ran: Wiener ŷ, ε (`i32` raw), status bits (`u16`) |
 //!
-//! 34 bytes per sample, 44 on the samples where the Wiener estimator runs.
+//! 33 bytes per sample.
 
 use core::borrow::Borrow;
 use core::fmt;
@@ -66,10 +64,8 @@ use core::fmt;
 use sledid::control::scheduled::{RedesignJob, RedesignResult};
 use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
-use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
-use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid::servo::{
-    Posted, ServoDesign, SledServo, SledServoOutput, SledServoState, Ticket, VELOCITY_N, WIENER_N,
+    Posted, ServoDesign, SledServo, SledServoOutput, SledServoState, Ticket, VELOCITY_N,
 };
 
 include!("loop_words.rs");
@@ -82,9 +78,6 @@ use sledid::Sample;
 
 /// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
 pub const N: usize = VELOCITY_N;
-
-/// Parameters of the Wiener model (first order, θ = [f₁, b₁, w, 1/range, bias]).
-pub const NW: usize = WIENER_N;
 
 /// The sled's sample period (Ts = 0.455 ms), ns: the firmware's SysTick period. The EMPS excerpt
 /// was recorded at 1 ms; the firmware replays it one record per sled sample period.
@@ -123,21 +116,6 @@ pub const EMPS_VELOCITY_PRIOR: (f64, f64) = (0.995_943, 69.362_5);
 /// default would refuse the rig's own model. 0.999 (τ = 1 s) still refuses an integrator.
 pub const EMPS_POLE_MAX: f64 = 0.999;
 
-/// Linear OE(1) prior [f₁, b₁] of the Wiener model: `ŷ(k) = −f₁·ŷ(k−1) + b₁·u(k−1)` for the
-/// centred position y − r (quanta) against u (full scale) at 2 ms, least-squares output error over
-/// every second row of the 640-row excerpt (pole on a 0.001 grid, b₁ in closed form): pole 0.984,
-/// b₁ = −1,145.5 (a closed loop: the tracking error goes against the drive), RMS error 642 quanta
-/// of a 6,775-quantum RMS signal.
-pub const WIENER_PRIOR: [f64; 2] = [-0.984, -1_145.5];
-
-/// The Wiener neuron's input range: max |y − r| over the excerpt (11,529 quanta), rounded up; u
-/// and Δy as measured (max |u| 0.41 full scale, max |Δ(y − r)| 442 quanta per 2 ms).
-pub const WIENER_RANGES: InputRanges = InputRanges {
-    u: 0.41,
-    y: 11_530.0,
-    dy: 442.0,
-};
-
 /// The rig's controller as the baseline (and fallback) of the scheduled controller.
 pub fn baseline() -> PidDesign {
     PidDesign::position_velocity_cascade(
@@ -150,36 +128,21 @@ pub fn baseline() -> PidDesign {
 
 /// The whole loop the firmware runs:
 /// - controller: `ScheduledDesign::new(baseline())` (default regions, poles, supervisor limits
-///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation;
-/// - velocity identifier: ARX(1,1) on Δy against u (`DifferencedOutput`), θ₀ = [−a, b] of the
-///   prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
-///   (16 in a row) — `sledid::servo::velocity_identifier`;
-/// - Wiener model at 2·Ts: `from_linear(Wiener, WIENER_PRIOR, WIENER_RANGES)`, λ = 0.995,
-///   P₀ = 100·I, dead zone ¼ quantum, trace(P) ≤ 100.
+///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation to start
+///   with (the friction is identified and compensated after the first accepted redesign);
+/// - velocity identifier: ARX(1,1) with a Coulomb term on Δy against u (`DifferencedOutput`),
+///   θ₀ = [−a, b, 0] of the prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
+///   (16 in a row) — `sledid::servo::velocity_identifier`.
 pub fn design() -> ServoDesign {
     let mut controller = ScheduledDesign::new(baseline());
     controller.supervisor.pole_max = EMPS_POLE_MAX;
     controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
 
-    let velocity = sledid::servo::velocity_identifier(EMPS_VELOCITY_PRIOR);
-
-    let mut wiener = NonlinearDesign::<NW>::from_linear(
-        NonlinearStructure::Wiener,
-        &WIENER_PRIOR,
-        WIENER_RANGES,
-    );
-    wiener.rls = RlsDesign {
-        lambda: 0.995,
-        p0: 100.0,
-        dead_zone: 0.25,
-        anti_windup: AntiWindup::TraceLimit { max: 100.0 },
-        ..RlsDesign::default()
-    };
+    let velocity = sledid::servo::velocity_identifier(EMPS_VELOCITY_PRIOR, 0.0);
 
     ServoDesign {
         controller,
         velocity,
-        wiener: Some(wiener),
         options: sledid::servo::ServoOptions::default(),
     }
 }
@@ -257,15 +220,6 @@ impl Fnv1a64 {
             self.write(&t.raw().to_le_bytes());
         }
         self.write(&v.status.bits().to_le_bytes());
-        match &out.wiener {
-            Some(w) => {
-                self.write(&[1]);
-                self.write(&w.y_hat.raw().to_le_bytes());
-                self.write(&w.eps.raw().to_le_bytes());
-                self.write(&w.status.bits().to_le_bytes());
-            }
-            None => self.write(&[0]),
-        }
     }
 
     /// The hash so far.
@@ -295,7 +249,6 @@ pub struct Run<C = SledServo> {
     checksum: Fnv1a64,
     samples: u32,
     updates: u32,
-    wiener_updates: u32,
     applied: u16,
     rejected: u16,
     skipped: u16,
@@ -324,7 +277,6 @@ impl<C: Borrow<SledServo>> Run<C> {
             checksum: Fnv1a64::new(),
             samples: 0,
             updates: 0,
-            wiener_updates: 0,
             applied: 0,
             rejected: 0,
             skipped: 0,
@@ -339,12 +291,6 @@ impl<C: Borrow<SledServo>> Run<C> {
         self.samples = self.samples.wrapping_add(1);
         if out.identifier.status.contains(sledid::Status::UPDATED) {
             self.updates = self.updates.wrapping_add(1);
-        }
-        if out
-            .wiener
-            .is_some_and(|w| w.status.contains(sledid::Status::UPDATED))
-        {
-            self.wiener_updates = self.wiener_updates.wrapping_add(1);
         }
         out
     }
@@ -387,21 +333,13 @@ impl<C: Borrow<SledServo>> Run<C> {
         {
             *dst = t.raw();
         }
-        let mut wiener_raw = [0i32; NW];
-        if let Some(w) = self.state.wiener() {
-            for (dst, t) in wiener_raw.iter_mut().zip(w.theta()) {
-                *dst = t.raw();
-            }
-        }
         Summary {
             samples: self.samples,
             updates: self.updates,
-            wiener_updates: self.wiener_updates,
             redesigns: [self.applied, self.rejected, self.skipped],
             fallback: self.state.controller().fallback(),
             checksum: self.checksum.value(),
             theta_raw,
-            wiener_raw,
         }
     }
 }
@@ -441,8 +379,6 @@ pub struct Summary {
     pub samples: u32,
     /// Samples on which the velocity identifier updated θ and P.
     pub updates: u32,
-    /// Samples on which the Wiener estimator updated θ and P.
-    pub wiener_updates: u32,
     /// Redesigns [applied, rejected, skipped].
     pub redesigns: [u16; 3],
     /// The baseline PID drives at the end (no accepted model).
@@ -451,8 +387,6 @@ pub struct Summary {
     pub checksum: u64,
     /// Final velocity θ = [a₁, b₁], raw I12F20.
     pub theta_raw: [i32; N],
-    /// Final Wiener θ, raw I12F20.
-    pub wiener_raw: [i32; NW],
 }
 
 /// `[a, b, c]`: a slice as defmt prints it.
@@ -468,14 +402,14 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 }
 
 impl fmt::Display for Summary {
-    /// `samples=… updates=… wiener_updates=… redesigns=[applied, rejected, skipped]
-    /// fallback=… checksum=0x…(16 hex digits) theta=[a1, b1] wiener=[…]` (raw I12F20), exactly
-    /// the firmware's defmt line.
+    /// `samples=… updates=… redesigns=[applied, rejected, skipped] fallback=…
+    /// checksum=0x…(16 hex digits) theta=[a1, b1]` (raw I12F20), exactly the firmware's defmt
+    /// line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "samples={} updates={} wiener_updates={} redesigns=",
-            self.samples, self.updates, self.wiener_updates
+            "samples={} updates={} redesigns=",
+            self.samples, self.updates
         )?;
         write_list(f, &self.redesigns)?;
         write!(
@@ -483,8 +417,6 @@ impl fmt::Display for Summary {
             " fallback={} checksum={:#018x} theta=",
             self.fallback, self.checksum
         )?;
-        write_list(f, &self.theta_raw)?;
-        f.write_str(" wiener=")?;
-        write_list(f, &self.wiener_raw)
+        write_list(f, &self.theta_raw)
     }
 }

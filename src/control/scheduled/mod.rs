@@ -11,6 +11,7 @@
 //! Settle:  v = Kp_z·e − Kd_z/2·d_y + I,   I ← clamp(I + Ki_z·e, ±I_max)   (conditional integration)
 //! Hold:    u = u_hold,  I frozen                                           (dead band: no limit cycle)
 //! u = clamp(h⁻¹(v), ±u_max)                                                (compensation optional)
+//! Redesign: θ = [a…, b…, c] → (a, b) placed; h = Coulomb map of u_c = c/Σb    (friction identified)
 //! Settle with a Wiener output map ŷ = x + w·tanh(a·x + c):  e ← −m⁻¹(y − r)   (output compensation)
 //! ```
 //! The paper (§3, Fig. 4) shows the baseline's ±1-quantum limit cycle is controller-induced and
@@ -76,8 +77,13 @@ pub struct ScheduledDesign {
     pub baseline: PidDesign,
     /// Region thresholds.
     pub regions: RegionDesign,
-    /// Closed-loop poles.
+    /// Closed-loop poles of every identified model's gains.
     pub placement: PlacementDesign,
+    /// Closed-loop poles of the prior's gains, which run until the first model is identified:
+    /// slower than `placement`'s, so that a prior whose gain is several times off the sled's
+    /// still gives a stable loop (a seek double pole p tolerates a gain error k while
+    /// |a − k·(a − p²)| < 1: k < 2.6 at p = 0.4, k < 9.7 at p = 0.8, for a = 0.83).
+    pub prior_placement: PlacementDesign,
     /// Allowed model region and estimator health limits.
     pub supervisor: SupervisorDesign,
     /// Settle integrator clamp ±I_max, V.
@@ -86,9 +92,16 @@ pub struct ScheduledDesign {
     pub hold_bias_v: f64,
     /// Denominator order na of the identifier's θ = [a…, b…] (1 or 2).
     pub model_na: usize,
+    /// The identifier's θ ends with a Coulomb term c = Σb·u_c
+    /// ([`crate::ident::linear::LinearDesign::coulomb`]): left out of the gain.
+    pub model_coulomb: bool,
+    /// Each accepted redesign replaces the input compensation with the Coulomb inverse map of the
+    /// identified level u_c = c/Σb ([`coulomb_compensation`]); needs `model_coulomb`. Off: the
+    /// compensation stays `compensation` (linear-only scheduling).
+    pub identify_friction: bool,
     /// A velocity model (a, b) to start from; `None`: baseline until the first accepted redesign.
     pub prior_model: Option<(f64, f64)>,
-    /// Inverse of the identified static input map, if any.
+    /// Inverse of the static input map the loop starts with (the prior's friction), if any.
     pub compensation: Option<InverseInputMap>,
     /// Inverse of a Wiener output map `m(x) = x + w·tanh(a·x + c)` (quanta, centred on the
     /// reference, as the paper's Wiener model of [`crate::ident::nonlinear`] identifies it): every
@@ -100,16 +113,25 @@ pub struct ScheduledDesign {
 }
 
 impl ScheduledDesign {
-    /// The default schedule around `baseline`, ARX(1, 1) on velocity, no prior, no compensation.
+    /// The default schedule around `baseline`: ARX(1, 1) with a Coulomb term on velocity
+    /// (θ = [a₁, b₁, c], the friction identified and compensated), no prior, no compensation to
+    /// start with.
     pub fn new(baseline: PidDesign) -> Self {
         Self {
             baseline,
             regions: RegionDesign::default(),
             placement: PlacementDesign::default(),
+            prior_placement: PlacementDesign {
+                seek_pole: 0.8,
+                settle_pole: 0.85,
+                ..PlacementDesign::default()
+            },
             supervisor: SupervisorDesign::default(),
             integrator_limit_v: 1.0,
             hold_bias_v: 0.0,
             model_na: 1,
+            model_coulomb: true,
+            identify_friction: true,
             prior_model: None,
             compensation: None,
             output_map: None,
@@ -128,6 +150,7 @@ impl ScheduledDesign {
         let baseline = self.baseline.build()?;
         let selector = self.regions.build()?;
         self.placement.validate()?;
+        self.prior_placement.validate()?;
         self.supervisor.validate()?;
         let fs = self.baseline.u_full_scale_v;
         let i_max = i32f32_from_f64(self.integrator_limit_v / fs)
@@ -143,6 +166,9 @@ impl ScheduledDesign {
                 n: self.model_na + 1,
             });
         }
+        if self.identify_friction && !self.model_coulomb {
+            return Err(ConfigError::CoulombTerm);
+        }
         let eps_limit = SignalI16F16::from_f64(self.supervisor.eps_limit_quanta)
             .map_err(|_| ConfigError::SupervisorLimit(self.supervisor.eps_limit_quanta))?;
         let mut config = ScheduledConfig {
@@ -156,6 +182,8 @@ impl ScheduledDesign {
             hold_bias: hold.raw(),
             eps_limit: eps_limit.raw().unsigned_abs(),
             na: self.model_na,
+            model_coulomb: self.model_coulomb,
+            identify_friction: self.identify_friction,
             compensation: self.compensation,
             output_map: self.output_map,
         };
@@ -163,6 +191,7 @@ impl ScheduledDesign {
             let model = VelocityModel {
                 a: a as f32,
                 b: b as f32,
+                coulomb_fs: 0.0,
             };
             // The supervisor's checks apply to the prior too.
             super::placement::reduce(
@@ -175,7 +204,7 @@ impl ScheduledDesign {
             )
             .map_err(|_| ConfigError::InitialModel(a))?;
             config.prior_gains = Some(
-                super::placement::place(model, &self.placement)
+                super::placement::place(model, &self.prior_placement)
                     .map_err(|_| ConfigError::InitialModel(b))?,
             );
         }
@@ -200,6 +229,9 @@ pub struct ScheduledConfig {
     hold_bias: i32,
     eps_limit: u32,
     na: usize,
+    model_coulomb: bool,
+    identify_friction: bool,
+    /// The input compensation the loop starts with.
     compensation: Option<InverseInputMap>,
     output_map: Option<InverseInputMap>,
 }
@@ -231,14 +263,17 @@ pub struct ScheduledState {
     near: NearTarget,
     /// The gains in use: the prior's, then each adopted redesign's.
     gains: ModelGains,
+    /// The input compensation in use: the design's, then (friction identified) each adopted
+    /// redesign's.
+    compensation: Option<InverseInputMap>,
     /// The model was refused (or none accepted yet): the baseline runs.
     fallback: bool,
 }
 
 impl ScheduledState {
     /// A fresh state: Seek, unprimed, nothing distrusted, the gains `gains` (`None`: none yet, the
-    /// baseline runs until a redesign is accepted).
-    pub const fn new(gains: Option<ModelGains>) -> Self {
+    /// baseline runs until a redesign is accepted) and the input compensation `compensation`.
+    pub const fn new(gains: Option<ModelGains>, compensation: Option<InverseInputMap>) -> Self {
         let (gains, fallback) = match gains {
             Some(g) => (g, false),
             None => (ModelGains::ZERO, true),
@@ -262,6 +297,7 @@ impl ScheduledState {
             observer: VelocityObserver::new(),
             near: NearTarget::new(),
             gains,
+            compensation,
             fallback,
         }
     }
@@ -297,13 +333,22 @@ impl ScheduledState {
         &self.gains
     }
 
+    /// The input compensation in use.
+    pub fn compensation(&self) -> Option<&InverseInputMap> {
+        self.compensation.as_ref()
+    }
+
     /// True while the model is refused (or none was accepted yet): the baseline drives.
     pub fn fallback(&self) -> bool {
         self.fallback
     }
 }
 
-/// Largest θ a redesign job carries (na + nb of the velocity model: ≤ 2 + 2).
+/// Trusted identifier updates since the last redesign after which a settling controller asks for
+/// another.
+pub const SETTLE_REDESIGN_UPDATES: u32 = 32;
+
+/// Largest θ a redesign job carries (na + nb (+ c) of the velocity model: ≤ 4).
 pub const MAX_MODEL_PARAMS: usize = 4;
 
 /// A redesign job: what the supervisor decided when it was requested, and the identifier's θ.
@@ -314,7 +359,7 @@ pub enum RedesignJob {
     Untrusted,
     /// No trusted update since the last design: keep the gains.
     Skip,
-    /// Place gains from θ = [a₁ … a_na, b…] (the first `len` entries).
+    /// Place gains from θ = [a₁ … a_na, b… (, c)] (the first `len` entries).
     Place {
         /// θ, zero-padded.
         theta: [ParamI12F20; MAX_MODEL_PARAMS],
@@ -331,6 +376,30 @@ pub struct RedesignResult {
     pub outcome: Redesign,
     /// The gains, when placed.
     pub gains: Option<ModelGains>,
+    /// The input compensation of the identified friction, when placed with `identify_friction`
+    /// (`None` there: no friction worth compensating).
+    pub compensation: Option<InverseInputMap>,
+}
+
+/// Identified Coulomb levels below this (fraction of full scale) are not compensated: the map's
+/// slope at zero, 1/(1 − 0.9), would only amplify the estimate's noise.
+pub const MIN_COULOMB_FS: f32 = 1e-3;
+/// Identified Coulomb levels are capped here (fraction of full scale).
+pub const MAX_COULOMB_FS: f32 = 0.5;
+
+/// The input compensation of a Coulomb level `u_c` (fraction of full scale):
+/// `h(u) = u − u_c·tanh(0.9·u/u_c)` inverted over v ∈ ±2·u_c ([`InverseInputMap::coulomb_raw`]);
+/// past it h(u) − u is taken as constant (|u| ≥ 2.9·u_c: tanh within 1.1 %). `None` below
+/// [`MIN_COULOMB_FS`] (or NaN), capped at [`MAX_COULOMB_FS`]. The table's interpolation error
+/// scales with u_c (`tests/compensation_table.rs` bounds it). Integer arithmetic past the one
+/// conversion.
+#[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+pub fn coulomb_compensation(u_c: f32) -> Option<InverseInputMap> {
+    if u_c.is_nan() || u_c < MIN_COULOMB_FS {
+        return None;
+    }
+    let raw = (u_c.min(MAX_COULOMB_FS) * 65_536.0) as i32; // ≤ 32,768
+    InverseInputMap::coulomb_raw(raw, raw.saturating_mul(2)).ok()
 }
 
 impl ScheduledConfig {
@@ -350,6 +419,9 @@ impl ScheduledConfig {
         }
         for map in [&self.compensation, &self.output_map].into_iter().flatten() {
             map.validate()?;
+        }
+        if self.identify_friction && !self.model_coulomb {
+            return Err(ConfigError::CoulombTerm);
         }
         let i_max = self.integrator_limit_i32f32;
         if !(0..=LIMIT_I32F32_MAX).contains(&i_max) {
@@ -391,9 +463,27 @@ impl ScheduledConfig {
         &self.baseline
     }
 
-    /// The compensation map, if any.
+    /// θ ends with a Coulomb term.
+    pub fn model_coulomb(&self) -> bool {
+        self.model_coulomb
+    }
+
+    /// The denominator order of θ.
+    pub fn model_na(&self) -> usize {
+        self.na
+    }
+
+    /// The compensation map the loop starts with, if any.
     pub fn compensation(&self) -> Option<&InverseInputMap> {
         self.compensation.as_ref()
+    }
+
+    /// θ split into the linear part [a…, b…] and the Coulomb term c (0 without one).
+    pub fn split_theta<'a>(&self, theta: &'a [ParamI12F20]) -> (&'a [ParamI12F20], i32) {
+        match (self.model_coulomb, theta.split_last()) {
+            (true, Some((c, linear))) => (linear, c.raw()),
+            _ => (theta, 0),
+        }
     }
 
     /// Supervisor bookkeeping of one identifier report; true when it distrusts the model now.
@@ -471,7 +561,15 @@ impl ScheduledConfig {
             state.near.enter(e, region == Region::Seek);
         }
         flags.set_if(ControlFlags::REGION_CHANGED, changed);
-        if changed && previous == Region::Seek && region == Region::Settle {
+        // A redesign on entering Settle, and again while settling once the identifier has
+        // learnt from enough motion since the last one (a loop the prior's gains leave ringing
+        // keeps moving, and keeps informing the identifier, until the gains are redesigned).
+        let entering_settle = changed && previous == Region::Seek && region == Region::Settle;
+        let informed = region == Region::Settle
+            && !distrusted
+            && state.trusted_updates >= SETTLE_REDESIGN_UPDATES
+            && !state.redesign_pending;
+        if entering_settle || informed {
             state.redesign_pending = true;
             flags.insert(ControlFlags::REDESIGN_REQUESTED);
         }
@@ -496,7 +594,7 @@ impl ScheduledConfig {
             sat |= out.flags.contains(PidFlags::ARITHMETIC_SATURATED);
             flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
             state.last_u = out.u.raw();
-            state.last_v_i32f32 = i64::from(self.forward(out.u.raw())) << 16;
+            state.last_v_i32f32 = i64::from(forward(state, out.u.raw())) << 16;
             return ControlOutput {
                 u: out.u,
                 region,
@@ -513,7 +611,7 @@ impl ScheduledConfig {
                 // holds the sled; no integrator.
                 state.integral_i32f32 = 0;
                 state.last_u = self.hold_bias;
-                state.last_v_i32f32 = i64::from(self.forward(self.hold_bias)) << 16;
+                state.last_v_i32f32 = i64::from(forward(state, self.hold_bias)) << 16;
                 flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
                 return ControlOutput {
                     u: SignalI16F16::from_raw(self.hold_bias),
@@ -553,7 +651,7 @@ impl ScheduledConfig {
                 let u = clamp_sym_i32(sat_i32(shr_round_i64(v, 16), &mut sat), u_max);
                 state.last_u = u;
                 // Uncompensated: the linear drive the sled sees is h(u).
-                state.last_v_i32f32 = i64::from(self.forward(u)) << 16;
+                state.last_v_i32f32 = i64::from(forward(state, u)) << 16;
                 flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
                 return ControlOutput {
                     u: SignalI16F16::from_raw(u),
@@ -596,7 +694,7 @@ impl ScheduledConfig {
         }
         let v = terms.saturating_add(state.integral_i32f32);
         let v_i16f16 = sat_i32(shr_round_i64(v, 16), &mut sat);
-        let u_raw = match &self.compensation {
+        let u_raw = match &state.compensation {
             Some(map) if compensate => map.apply(v_i16f16),
             _ => v_i16f16,
         };
@@ -608,7 +706,7 @@ impl ScheduledConfig {
         state.last_v_i32f32 = if compensate {
             v
         } else {
-            i64::from(self.forward(u)) << 16
+            i64::from(forward(state, u)) << 16
         };
         state.last_u = u;
         ControlOutput {
@@ -624,11 +722,11 @@ impl ScheduledConfig {
             .as_ref()
             .map_or(e, |m| m.apply(e.saturating_neg()).saturating_neg())
     }
+}
 
-    /// h(u) of the compensation map (the identity without one), I16F16 raw.
-    fn forward(&self, u: i32) -> i32 {
-        self.compensation.as_ref().map_or(u, |m| m.forward(u))
-    }
+/// h(u) of the compensation map in use (the identity without one), I16F16 raw.
+fn forward(state: &ScheduledState, u: i32) -> i32 {
+    state.compensation.as_ref().map_or(u, |m| m.forward(u))
 }
 
 /// The scheduled law as a servo controller: the redesign places gains from the identified θ.
@@ -638,7 +736,7 @@ impl Controller for ScheduledConfig {
     type Design = RedesignResult;
 
     fn new_state(&self) -> ScheduledState {
-        ScheduledState::new(self.prior_gains)
+        ScheduledState::new(self.prior_gains, self.compensation)
     }
 
     fn step(&self, state: &mut ScheduledState, input: &ControlInput) -> ControlOutput {
@@ -673,7 +771,9 @@ impl Controller for ScheduledConfig {
         })
     }
 
-    /// θ → checked velocity model → placed gains (f32, outside the interrupt).
+    /// θ → checked velocity model → placed gains (f32, outside the interrupt); with
+    /// `identify_friction`, the Coulomb level u_c = c/Σb → its input compensation.
+    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
     fn redesign(&self, job: &RedesignJob) -> RedesignResult {
         let placed = match job {
             RedesignJob::Untrusted => Err(Rejection::Untrusted),
@@ -681,22 +781,33 @@ impl Controller for ScheduledConfig {
                 return RedesignResult {
                     outcome: Redesign::Skipped,
                     gains: None,
+                    compensation: None,
                 };
             }
             RedesignJob::Place { theta, len } => {
-                let theta = theta.get(..usize::from(*len)).unwrap_or(&[]);
-                super::placement::reduce(theta, self.na, &self.supervisor)
-                    .and_then(|m| super::placement::place(m, &self.placement).map(|g| (m, g)))
+                let (linear, c) = self.split_theta(theta.get(..usize::from(*len)).unwrap_or(&[]));
+                super::placement::reduce(linear, self.na, &self.supervisor).and_then(|mut m| {
+                    let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
+                    // b_sum > 0: reduce refuses a non-positive gain (Σb has the sign of b).
+                    m.coulomb_fs = ParamI12F20::from_raw(c).to_f32() / b_sum;
+                    super::placement::place(m, &self.placement).map(|g| (m, g))
+                })
             }
         };
         match placed {
             Ok((model, gains)) => RedesignResult {
                 outcome: Redesign::Applied(model),
                 gains: Some(gains),
+                compensation: if self.identify_friction {
+                    coulomb_compensation(model.coulomb_fs)
+                } else {
+                    None
+                },
             },
             Err(r) => RedesignResult {
                 outcome: Redesign::Rejected(r),
                 gains: None,
+                compensation: None,
             },
         }
     }
@@ -708,6 +819,9 @@ impl Controller for ScheduledConfig {
             (Redesign::Applied(_), Some(g)) => {
                 state.gains = g;
                 state.fallback = false;
+                if self.identify_friction {
+                    state.compensation = design.compensation;
+                }
             }
             (Redesign::Rejected(_), _) => state.fallback = true,
             _ => {}
@@ -716,7 +830,8 @@ impl Controller for ScheduledConfig {
 }
 
 /// Words: the baseline PID, the region selector, placement, supervisor, the prior's gains, I_max,
-/// hold bias, ε limit, na, the input map and the output map (`u_max` is the baseline's; validity:
+/// hold bias, ε limit, na, the Coulomb term and friction identification, the input map and the
+/// output map (`u_max` is the baseline's; validity:
 /// [`ScheduledConfig::validate`]).
 impl Words for ScheduledConfig {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
@@ -729,6 +844,8 @@ impl Words for ScheduledConfig {
         self.hold_bias.put(w)?;
         self.eps_limit.put(w)?;
         self.na.put(w)?;
+        self.model_coulomb.put(w)?;
+        self.identify_friction.put(w)?;
         self.compensation.put(w)?;
         self.output_map.put(w)
     }
@@ -744,6 +861,8 @@ impl Words for ScheduledConfig {
         let hold_bias = i32::take(r);
         let eps_limit = u32::take(r);
         let na = usize::take(r);
+        let model_coulomb = bool::take(r);
+        let identify_friction = bool::take(r);
         Self {
             baseline,
             selector,
@@ -755,14 +874,16 @@ impl Words for ScheduledConfig {
             hold_bias,
             eps_limit,
             na,
+            model_coulomb,
+            identify_friction,
             compensation: <Option<InverseInputMap> as Words>::take(r),
             output_map: <Option<InverseInputMap> as Words>::take(r),
         }
     }
 }
 
-/// `v` less a dead zone of l quanta per sample (what one flicker of the reading moves v̂ by),
-/// I16F16 raw.
+/// `v` less a dead zone of l/2 quanta per sample (half what one flicker of the reading moves v̂
+/// by), I16F16 raw.
 fn dead_zone(v: i32, l: crate::num::gain::Gain) -> i32 {
     let width = sat_i32(shr_round_i64(l.apply(1 << 16), 16), &mut false) >> 1;
     v.saturating_sub(v.clamp(-width, width))
