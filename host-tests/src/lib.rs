@@ -3,9 +3,7 @@
 
 pub mod closed_loop;
 pub mod compare;
-pub mod control_eval;
-pub mod control_plot;
-pub mod family;
+pub mod control;
 pub mod faults;
 pub mod pacing;
 pub mod plants;

@@ -4,7 +4,7 @@
 //! issue 5's targets on it and on the perturbed plants (mass ±30 %, friction ±50 %, quantum ×0.5
 //! and ×2), 100 seeks each.
 
-use sledid_host::control_eval::{
+use sledid_host::control::{
     ControlRun, ControlSummary, ControllerKind, Perturbation, run_tuned, scheduled_design,
     scheduled_design_for,
 };

@@ -16,12 +16,12 @@ use sledid::num::boundary::{PositionI48F16, Sample};
 use sledid::num::fixed::{ParamI12F20, SignalI16F16};
 use sledid::servo::ServoDesign;
 use sledid::servo::hal::{ControlLoop, HBridge, PositionSensor, PwmDirection};
-use sledid_host::control_eval::{
+use sledid_host::control::{
     ControlSummary, ControllerKind, Perturbation, identifier_design, perturbed, run,
     scheduled_design,
 };
 use sledid_host::reference::control::position_from_quanta;
-use sledid_host::reference::scheduled::{LawMode, ScheduledF64, map_table_error};
+use sledid_host::reference::scheduled::{ScheduledF64, map_table_error};
 use sledid_host::twin::{Twin, TwinParams};
 
 /// Seeks per plant and controller in the target test (the CLI table uses 100).
@@ -123,7 +123,7 @@ fn fixed_point_matches_float64_in_closed_loop() {
                 position_from_quanta(y_counts),
             );
             let out = config.step_law(&mut state, r, y, &report);
-            let u64 = reference.step(LawMode::of(&out), r_counts, y_counts);
+            let u64 = reference.step_as(&out, r_counts, y_counts);
             let err = (out.u.to_f64() - u64).abs();
             max_err = max_err.max(err);
             sum_sq += err * err;
@@ -317,9 +317,53 @@ fn an_accepted_redesign_compensates_the_identified_friction() {
     assert_eq!(level(&state), Some(prior));
 }
 
-/// The supervisor: bad estimator flags and a large prediction error switch to the baseline at
-/// once (FALLBACK, bumpless); a redesign refuses a model with the wrong gain sign or an unstable
-/// pole and latches the fallback until a good model arrives after trusted updates.
+/// Without a prior the baseline PID drives (FALLBACK) until a model is accepted, exactly as the
+/// baseline alone would; the first accepted redesign hands over to the law, continuing from the
+/// baseline's last output (the integrator takes up the difference).
+#[test]
+fn without_a_prior_the_baseline_drives_until_a_model_is_accepted() {
+    use sledid::control::PidConfig;
+    let mut design = scheduled_design(&TwinParams::default()).unwrap();
+    design.prior_model = None;
+    let config = design.build().unwrap();
+    let mut state = Controller::new_state(&config);
+    let pid: PidConfig = design.baseline.build().unwrap();
+    let mut pid_state = pid.new_state();
+    // The fallback's bumpless entry: one manual step at the last output (0).
+    pid_state.set_enabled(false);
+    pid_state.set_manual_output(SignalI16F16::ZERO);
+    let good = ModelReport {
+        status: Status::UPDATED,
+        eps: SignalI16F16::from_f64(0.1).unwrap(),
+    };
+    let mut last = SignalI16F16::ZERO;
+    for k in 0..50 {
+        let r = PositionI48F16::from_counts(20);
+        let y = PositionI48F16::from_counts(k / 5);
+        let o = config.step_law(&mut state, r, y, &good);
+        assert!(o.flags.contains(ControlFlags::FALLBACK), "sample {k}");
+        let b = pid.step(&mut pid_state, r, y);
+        pid_state.set_enabled(true);
+        assert_eq!(o.u, b.u, "sample {k}");
+        last = o.u;
+    }
+    assert!(matches!(
+        redesign(&config, &mut state, &theta(0.83, 23.7)),
+        Redesign::Applied(_)
+    ));
+    let r = PositionI48F16::from_counts(20);
+    let y = PositionI48F16::from_counts(10);
+    let o = config.step_law(&mut state, r, y, &good);
+    assert!(!o.flags.contains(ControlFlags::FALLBACK));
+    assert!(
+        (o.u.to_f64() - last.to_f64()).abs() < 0.05,
+        "{o:?} after {last:?}"
+    );
+}
+
+/// The supervisor: bad estimator flags and a large prediction error switch to the fallback at
+/// once (FALLBACK: the prior's gains); a redesign refuses a model with the wrong gain sign or an
+/// unstable pole and latches the fallback until a good model arrives after trusted updates.
 #[test]
 fn supervisor_falls_back_and_recovers() {
     let design = scheduled_design(&TwinParams::default()).unwrap();
@@ -333,18 +377,19 @@ fn supervisor_falls_back_and_recovers() {
     };
     let o = config.step_law(&mut state, r, y, &good);
     assert!(!o.flags.contains(ControlFlags::FALLBACK));
-    let u_before = o.u;
-    // An outlier: baseline at once, starting from the last output.
+    // An outlier: the fallback at once — with a prior, the law on the prior's gains (here the
+    // gains in use: no redesign yet), so the drive is the one a trusted sample would give.
     let outlier = ModelReport {
         status: Status::OUTLIER,
         ..good
     };
+    let expected = config.step_law(&mut state.clone(), r, y, &good).u;
     let o = config.step_law(&mut state, r, y, &outlier);
     assert!(
         o.flags
             .contains(ControlFlags::FALLBACK | ControlFlags::MODEL_UNTRUSTED)
     );
-    assert_eq!(o.u, u_before);
+    assert_eq!(o.u, expected);
     // It stays distrusted for untrusted_hold_samples, then the model gains return.
     for _ in 1..design.supervisor.untrusted_hold_samples {
         assert!(
@@ -431,8 +476,7 @@ fn reversed_sensor_is_flagged_as_fallback() {
     let params = TwinParams::default();
     let design = scheduled_design(&params).unwrap();
     let mut lp =
-        sledid_host::control_eval::ScheduledLoop::new(&design, &identifier_design(&design))
-            .unwrap();
+        sledid_host::control::ScheduledLoop::new(&design, &identifier_design(&design)).unwrap();
     let mut twin = Twin::new(params, 2).unwrap();
     let mut k = 0usize;
     let mut controller = |r: f64, y: f64| {
@@ -618,8 +662,7 @@ fn output_map_acts_only_in_settle_and_identity_is_exact() {
     let run = |output_map| {
         let mut d = design;
         d.output_map = output_map;
-        let mut lp =
-            sledid_host::control_eval::ScheduledLoop::new(&d, &identifier_design(&d)).unwrap();
+        let mut lp = sledid_host::control::ScheduledLoop::new(&d, &identifier_design(&d)).unwrap();
         let mut p = params.clone();
         p.reference.seek_count = 10;
         let mut twin = Twin::new(p, 5).unwrap();

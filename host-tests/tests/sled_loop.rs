@@ -1,7 +1,7 @@
 //! The firmware's whole per-sample step (`sledid::servo`): the scheduled controller and its
 //! velocity identifier — shadow mode and the configuration words.
 
-use sledid_host::control_eval::{identifier_design, scheduled_design};
+use sledid_host::control::{identifier_design, scheduled_design};
 use sledid_host::twin::TwinParams;
 
 /// Shadow mode: with the drive the plant received given explicitly, the loop computes its own u

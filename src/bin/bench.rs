@@ -297,8 +297,9 @@ impl ScheduledBench {
         (o.u.raw() as u32) ^ u32::from(o.flags.bits())
     }
 
-    /// Call `i`: the same step, then the slow-rate redesign (f32 + libm) from a θ that varies
-    /// with `i` (subtract the step's cost).
+    /// Call `i`: the same step, then the slow-rate redesign (f32 + libm, and the identified
+    /// friction's inverse map) from a θ = [a₁, b₁, c] that varies with `i` (subtract the step's
+    /// cost).
     pub fn call_with_redesign(&mut self, i: u32) -> u32 {
         let acc = self.call(i);
         let a = ParamI12F20::from_raw(-(858_000 + (i % 64) as i32 * 100));
@@ -306,7 +307,9 @@ impl ScheduledBench {
         let mut theta = [ParamI12F20::ZERO; sledid::control::scheduled::MAX_MODEL_PARAMS];
         theta[0] = a;
         theta[1] = b;
-        let job = sledid::control::scheduled::RedesignJob::Place { theta, len: 2 };
+        // c = b·u_c with u_c ≈ 0.0075 full scale: the redesign builds the friction map too.
+        theta[2] = ParamI12F20::from_raw(195_000 + (i % 64) as i32 * 100);
+        let job = sledid::control::scheduled::RedesignJob::Place { theta, len: 3 };
         let design = Controller::redesign(&self.config, &job);
         Controller::adopt(&self.config, &mut self.state, &design);
         acc ^ u32::from(matches!(

@@ -257,8 +257,13 @@ impl<const N: usize> LinearConfig<N> {
         if self.coulomb
             && let Some(last) = phi.last_mut()
         {
-            // −sign(y(t−1)): the friction opposes the last motion (0 at rest).
+            // −sign(y(t−1)): the friction opposes the last motion (0 at rest). Not while the
+            // input is at full scale: the drive then saturates in the direction of motion, u and
+            // the sign are collinear and the friction cannot be told from the gain (the gain
+            // absorbs it meanwhile: b − c for |u| = 1).
+            let saturated = st.history.input_lag(self.nk).raw().unsigned_abs() >= 1 << 16;
             *last = match st.history.output_lag(1).raw().signum() {
+                _ if saturated => SignalI16F16::ZERO,
                 1 => SignalI16F16::from_int(-1),
                 -1 => SignalI16F16::from_int(1),
                 _ => SignalI16F16::ZERO,

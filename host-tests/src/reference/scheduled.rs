@@ -102,7 +102,7 @@ pub fn reduce_f64(theta: &[f64], na: usize, design: &ScheduledDesign) -> Option<
 /// The law a sample ran, as the fixed-point controller decided it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LawMode {
-    /// The baseline PID (the model distrusted or refused).
+    /// The baseline PID (the model distrusted or refused, and no prior to fall back to).
     Fallback,
     /// Hold: the hold bias.
     Hold,
@@ -117,10 +117,11 @@ pub enum LawMode {
 }
 
 impl LawMode {
-    /// The mode of one fixed-point output.
-    pub fn of(out: &ControlOutput) -> Self {
+    /// The mode of one fixed-point output of a controller with (`has_prior`) or without a prior:
+    /// its fallback is the region's law on the prior's gains, or the baseline PID.
+    pub fn of(out: &ControlOutput, has_prior: bool) -> Self {
         let f = out.flags;
-        if f.contains(ControlFlags::FALLBACK) {
+        if f.contains(ControlFlags::FALLBACK) && !has_prior {
             Self::Fallback
         } else {
             match out.region {
@@ -139,6 +140,8 @@ impl LawMode {
 pub struct ScheduledF64 {
     design: ScheduledDesign,
     gains: Option<GainsF64>,
+    /// The prior's gains: the fallback's, where there is a prior.
+    prior: Option<GainsF64>,
     /// (w, a, c) of the compensated input map.
     map: Option<(f64, f64, f64)>,
     /// (w, a, c) of the compensated Wiener output map.
@@ -172,6 +175,7 @@ impl ScheduledF64 {
         Ok(Self {
             design: *design,
             gains,
+            prior: gains,
             map: design.compensation.map(wac),
             output_map: design.output_map.map(wac),
             y1: 0.0,
@@ -236,9 +240,17 @@ impl ScheduledF64 {
         self.v_hat
     }
 
-    /// One sample of the law `mode` (the fixed-point controller's decision) at r, y (quanta);
-    /// returns u (full scale).
-    pub fn step(&mut self, mode: LawMode, r: f64, y: f64) -> f64 {
+    /// One sample as the fixed-point controller decided it (`out`: its region, its law, whether
+    /// it fell back) at r, y (quanta); returns u (full scale).
+    pub fn step_as(&mut self, out: &ControlOutput, r: f64, y: f64) -> f64 {
+        let mode = LawMode::of(out, self.prior.is_some());
+        let fallback = out.flags.contains(ControlFlags::FALLBACK);
+        self.step(mode, fallback, r, y)
+    }
+
+    /// One sample of the law `mode` at r, y (quanta), on the prior's gains when `fallback` (and
+    /// there is a prior); returns u (full scale).
+    pub fn step(&mut self, mode: LawMode, fallback: bool, r: f64, y: f64) -> f64 {
         let d = self.design;
         let fs = d.baseline.u_full_scale_v;
         // The linear position x̂ = r + m⁻¹(y − r) (y without an output map).
@@ -252,7 +264,12 @@ impl ScheduledF64 {
         let (dy1, dr1) = (y - self.y1, r - self.r1);
         let ar = dr1 - self.dr1_previous;
         (self.y1, self.r1, self.dr1_previous) = (y, r, dr1);
-        let g = self.gains.unwrap_or(GainsF64 {
+        let gains = if fallback && self.prior.is_some() {
+            self.prior
+        } else {
+            self.gains
+        };
+        let g = gains.unwrap_or(GainsF64 {
             kp_seek: 0.0,
             kd_seek: 0.0,
             kv_ff: 0.0,

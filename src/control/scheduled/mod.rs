@@ -532,7 +532,15 @@ impl ScheduledConfig {
             flags.insert(ControlFlags::FIRST_SAMPLE);
         }
         let dy1 = sat_i32(y_lin.saturating_sub(state.y1), &mut sat);
-        let g = state.gains;
+        let distrusted = self.supervise(state, report);
+        flags.set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
+        // Falling back: to the prior's gains where there is a prior (placed for a model several
+        // times off, they hold a sled the identified model has misled), else to the baseline PID.
+        let falling_back = state.fallback || distrusted;
+        let g = match (falling_back, self.prior_gains) {
+            (true, Some(prior)) => prior,
+            _ => state.gains,
+        };
         // The model's input over the last sample: the linear drive, after friction compensation.
         let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
         let v_hat = state.observer.update(&g, v_prev, dy1, &mut sat);
@@ -540,8 +548,6 @@ impl ScheduledConfig {
         let ar = dr1.saturating_sub(state.dr1_previous);
         (state.y1, state.r1) = (y_lin, r.raw());
         state.dr1_previous = dr1;
-        let distrusted = self.supervise(state, report);
-        flags.set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
         let band = self.selector.hold_band_raw();
         let verdict = state.near.update(
             y.raw(),
@@ -573,8 +579,8 @@ impl ScheduledConfig {
             state.redesign_pending = true;
             flags.insert(ControlFlags::REDESIGN_REQUESTED);
         }
-        if state.fallback || distrusted {
-            flags.insert(ControlFlags::FALLBACK);
+        flags.set_if(ControlFlags::FALLBACK, falling_back);
+        if falling_back && self.prior_gains.is_none() {
             let entering = !state.in_fallback;
             state.in_fallback = true;
             if entering {

@@ -1,5 +1,6 @@
-//! The step-response figure of `sledid control`: the end of a few seeks, error and reference
-//! relative to the target, the drive, and the scheduled controller's region shaded behind.
+//! The figures of the control commands: `sledid control`'s step responses (the start of a few
+//! seeks, error and reference relative to the target, the drive, the scheduled controller's
+//! region shaded behind) and `sledid control-family`'s per-plant settling ratios and events.
 //!
 //! Text uses plotters' `ab_glyph` backend with the DejaVu Sans font embedded by `dejavu` (no
 //! system fonts), as the study's figures do.
@@ -8,7 +9,8 @@ use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
 
-use crate::control_eval::ControlRun;
+use super::family_eval::{FamilyReport, PlantResult, RunBrief};
+use super::run::ControlRun;
 use sledid::control::Region;
 
 const FONT: &str = "sans-serif";
@@ -139,6 +141,117 @@ pub fn plot_steps(run: &ControlRun, path: &Path, count: usize) -> Result<(), Str
                 .position(SeriesLabelPosition::LowerRight)
                 .draw()?;
         }
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// One controller's points in the family figure: its name, colour and where its brief is.
+type Series = (&'static str, RGBColor, fn(&PlantResult) -> &RunBrief);
+
+/// The family's figure (`sledid control-family`): per plant, ordered by the servo's ratio, the
+/// median settling of the servo, the frozen servo and the servo without friction identification
+/// over the baseline's (log scale, the 0.7 target dashed); below, each one's limit-cycle pulses
+/// plus unsettled seeks, plus one (log scale, clipped at 200).
+///
+/// # Errors
+/// The font or the drawing backend failed.
+pub fn plot_family(report: &FamilyReport, path: &Path) -> Result<(), String> {
+    if !font_ready() {
+        return Err("the embedded DejaVu Sans font could not be loaded".to_owned());
+    }
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (top, bottom) = root.split_vertically(560);
+        let mut order: Vec<&PlantResult> = report.plants.iter().collect();
+        order.sort_by(|a, b| a.ratio_to_baseline().total_cmp(&b.ratio_to_baseline()));
+        let n = order.len() as f64;
+        let ratio = |b: &RunBrief, p: &PlantResult| {
+            (b.settling_median_ms / p.baseline.settling_median_ms).clamp(0.03, 30.0)
+        };
+        let series: [Series; 3] = [
+            ("servo (identified)", RGBColor(0, 114, 178), |p| {
+                &p.identified
+            }),
+            ("frozen at the prior", RGBColor(230, 159, 0), |p| &p.frozen),
+            (
+                "linear-only (friction not identified)",
+                RGBColor(0, 158, 115),
+                |p| &p.linear_only,
+            ),
+        ];
+        let mut c = ChartBuilder::on(&top)
+            .caption(
+                format!(
+                    "{} plants of family seed {}, {} seeks each: median settling over the baseline's",
+                    report.plants.len(),
+                    report.options.seed,
+                    report.options.seeks
+                ),
+                (FONT, 18),
+            )
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..n, (0.03..30.0).log_scale())?;
+        c.configure_mesh()
+            .x_desc("plant, ordered by the servo's ratio")
+            .y_desc("median settling / baseline's")
+            .label_style((FONT, 12))
+            .draw()?;
+        c.draw_series(DashedLineSeries::new(
+            [(0.0, 0.7), (n, 0.7)],
+            6,
+            4,
+            BLACK.stroke_width(1),
+        ))?
+        .label("0.7 (target)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK));
+        for (name, color, pick) in series {
+            c.draw_series(order.iter().enumerate().map(|(i, p)| {
+                Circle::new((i as f64 + 0.5, ratio(pick(p), p)), 3, color.filled())
+            }))?
+            .label(name)
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
+        let mut e = ChartBuilder::on(&bottom)
+            .caption(
+                "limit-cycle pulses + unsettled seeks per plant, plus one (log scale)",
+                (FONT, 16),
+            )
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..n, (0.9..200.0).log_scale())?;
+        e.configure_mesh()
+            .x_desc("plant, same order")
+            .y_desc("events + 1")
+            .label_style((FONT, 12))
+            .draw()?;
+        let baseline: [Series; 1] = [("baseline", RGBColor(120, 120, 120), |p| &p.baseline)];
+        for (name, color, pick) in baseline.into_iter().chain(series) {
+            e.draw_series(order.iter().enumerate().map(|(i, p)| {
+                let b = pick(p);
+                let events = (b.limit_cycle_pulses + b.unsettled).min(199) as f64 + 1.0;
+                Circle::new((i as f64 + 0.5, events), 3, color.filled())
+            }))?
+            .label(name)
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+        }
+        e.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
         root.present()?;
         Ok(())
     };

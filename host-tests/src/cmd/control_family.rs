@@ -1,0 +1,81 @@
+//! `sledid control-family`: the servo on N plants of the seeded family × the seeks, against the
+//! baseline, the servo frozen at its prior and the servo without friction identification — in
+//! parallel, with a progress bar; writes a table, JSON and a plot.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use sledid_host::control::family_eval::{self, FamilyOptions};
+use sledid_host::control::plot;
+use sledid_host::twin::TwinParams;
+use std::path::PathBuf;
+
+/// `sledid control-family`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Plants of the family.
+    #[arg(long, default_value_t = 200)]
+    pub plants: u64,
+    /// The family's seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Seeks per plant and controller.
+    #[arg(long, default_value_t = 100)]
+    pub seeks: u32,
+    /// The plant every servo is designed from (JSON, its `plant` section). Default: the built-in
+    /// nominal sled.
+    #[arg(long)]
+    pub prior: Option<PathBuf>,
+    /// Output directory: family.json, family.md, family.png.
+    #[arg(long, default_value = "out/control-family")]
+    pub out: PathBuf,
+}
+
+/// Runs the command.
+///
+/// # Errors
+/// Parameter, run, file or plot errors.
+pub fn run(a: &Args) -> Result<(), String> {
+    let prior = match &a.prior {
+        Some(p) => {
+            TwinParams::from_json_file(p)
+                .map_err(|e| format!("{}: {e}", p.display()))?
+                .plant
+        }
+        None => TwinParams::default().plant,
+    };
+    let options = FamilyOptions {
+        plants: a.plants,
+        seed: a.seed,
+        seeks: a.seeks,
+        prior,
+        ..FamilyOptions::default()
+    };
+    let bar = ProgressBar::new(a.plants);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} plants, eta {eta}")
+    {
+        bar.set_style(style);
+    }
+    let report = family_eval::evaluate(&options, Some(&bar))?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let write = |name: &str, text: String| {
+        let path = a.out.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+    write("family.json", json + "\n")?;
+    let stats = family_eval::stats_table(&report.stats);
+    write(
+        "family.md",
+        format!(
+            "# Servo on {} plants of family seed {}, {} seeks each\n\n{stats}\n{}",
+            a.plants,
+            a.seed,
+            a.seeks,
+            family_eval::plant_table(&report)
+        ),
+    )?;
+    plot::plot_family(&report, &a.out.join("family.png"))?;
+    println!("{stats}\n→ {}", a.out.display());
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! One closed-loop run on the twin: the baseline PID or the servo's per-sample step (controller,
+//! identifier, background redesign and hand-over) behind the twin's controller interface.
+
+use serde::Serialize;
+use sledid::control::{ControlFlags, Redesign, Region, ScheduledDesign};
+use sledid::ident::step::IdentifierDesign;
+use sledid::servo::{ServoDesign, ServoOptions, SledServo, SledServoState, VELOCITY_N};
+
+use super::design::{identifier_design, scheduled_design_for};
+use super::summary::{ControlSummary, summarize};
+use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
+use crate::twin::{PlantParams, SledController, Twin, TwinParams};
+
+/// Which controller closes the loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// The paper's badly tuned PID (the parameters' `controller` gains) in fixed point.
+    Baseline,
+    /// The gain-scheduled controller with the on-line identifier.
+    Scheduled,
+}
+
+/// interface; the redesign runs after the sample that requests it, as the firmware's main loop
+/// would before the next interrupt.
+pub struct ScheduledLoop {
+    /// The loop configuration (its controller gains swapped by redesigns).
+    pub config: SledServo,
+    /// The loop state.
+    pub state: SledServoState,
+    u_full_scale_v: f64,
+    /// Per sample: the region and flags.
+    pub trace: Vec<(Region, ControlFlags)>,
+    /// Every redesign outcome.
+    pub redesigns: Vec<Redesign>,
+}
+
+impl ScheduledLoop {
+    /// From a design and the identifier's design, the servo's default options.
+    pub fn new(
+        design: &ScheduledDesign,
+        identifier: &IdentifierDesign<VELOCITY_N>,
+    ) -> Result<Self, String> {
+        Self::with_options(design, identifier, ServoOptions::default())
+    }
+
+    /// As [`Self::new`], with the servo's options (hand-over latency, identification).
+    pub fn with_options(
+        design: &ScheduledDesign,
+        identifier: &IdentifierDesign<VELOCITY_N>,
+        options: ServoOptions,
+    ) -> Result<Self, String> {
+        let config = ServoDesign {
+            controller: *design,
+            velocity: *identifier,
+            options,
+        }
+        .build()
+        .map_err(|e| e.to_string())?;
+        Ok(Self {
+            state: config.new_state(),
+            config,
+            u_full_scale_v: design.baseline.u_full_scale_v,
+            trace: Vec::new(),
+            redesigns: Vec::new(),
+        })
+    }
+
+    /// The identifier's θ now.
+    pub fn theta(&self) -> [f64; VELOCITY_N] {
+        self.state.identifier().model().theta().map(|p| p.to_f64())
+    }
+}
+
+impl SledController for ScheduledLoop {
+    fn step(&mut self, r_counts: f64, y_counts: f64) -> f64 {
+        let (r, y) = (
+            position_from_quanta(r_counts),
+            position_from_quanta(y_counts),
+        );
+        let out = self.config.step(&mut self.state, r, y);
+        // The background's turn between two samples (the hand-over adopts it at k + L).
+        if let Some(design) = self.config.run_background(&mut self.state) {
+            self.redesigns.push(design.outcome);
+        }
+        self.trace.push((out.region, out.control));
+        out.u.to_f64() * self.u_full_scale_v
+    }
+}
+
+/// A finished closed-loop run.
+pub struct ControlRun {
+    /// The twin with its recording.
+    pub twin: Twin,
+    /// Per sample region and flags (scheduled only).
+    pub trace: Vec<(Region, ControlFlags)>,
+    /// The summary.
+    pub summary: ControlSummary,
+    /// Every redesign outcome, in order (scheduled only).
+    pub redesigns: Vec<Redesign>,
+}
+
+/// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller
+/// tuned on the default sled ([`scheduled_design`]).
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    kind: ControllerKind,
+) -> Result<ControlRun, String> {
+    run_tuned(params, &PlantParams::default(), seed, seeks, kind)
+}
+
+/// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller tuned
+/// on the plant `nominal` ([`scheduled_design_for`]).
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_tuned(
+    params: &TwinParams,
+    nominal: &PlantParams,
+    seed: u64,
+    seeks: u32,
+    kind: ControllerKind,
+) -> Result<ControlRun, String> {
+    match kind {
+        ControllerKind::Baseline => run_with(params, seed, seeks, None),
+        ControllerKind::Scheduled => {
+            let design = scheduled_design_for(params, nominal)?;
+            run_with(params, seed, seeks, Some(&design))
+        }
+    }
+}
+
+/// Runs `seeks` random seeks of `params` with the baseline (`design` = `None`) or the scheduled
+/// controller of `design` in the loop.
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_with(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+) -> Result<ControlRun, String> {
+    run_with_options(params, seed, seeks, design, ServoOptions::default())
+}
+
+/// [`run_with`] with the servo's options.
+///
+/// # Errors
+/// Twin or controller configuration errors.
+pub fn run_with_options(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+    options: ServoOptions,
+) -> Result<ControlRun, String> {
+    let mut params = params.clone();
+    params.reference.seek_count = seeks;
+    params.reference.targets_tracks = None;
+    let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
+    let p = &params.plant;
+    let (trace, redesigns, kind) = match design {
+        None => {
+            let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
+            let mut c = FixedPid::new(&design).map_err(|e| e.to_string())?;
+            twin.set_controller_label("baseline_fixed_pid");
+            twin.run(&mut c);
+            (Vec::new(), Vec::new(), ControllerKind::Baseline)
+        }
+        Some(design) => {
+            let mut c = ScheduledLoop::with_options(design, &identifier_design(design), options)?;
+            twin.set_controller_label("scheduled");
+            twin.run(&mut c);
+            (c.trace, c.redesigns, ControllerKind::Scheduled)
+        }
+    };
+    let summary = summarize(&twin, &trace, &redesigns, kind, seed);
+    Ok(ControlRun {
+        twin,
+        trace,
+        summary,
+        redesigns,
+    })
+}
