@@ -70,6 +70,9 @@ pub enum ConfigError {
     CovarianceLimit(f64),
     /// A Coulomb term on a structure other than ARX (its regressor needs the measured output).
     CoulombTerm,
+    /// Time-optimal seek: α not in (0, 1], a velocity pole not in [0, 1), or a braking curve
+    /// that is not increasing.
+    SeekDesign(f64),
     /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
     ModelOrder {
         /// Output (denominator) order.
@@ -169,6 +172,10 @@ impl fmt::Display for ConfigError {
             Self::ModelOrder { na, nb, n } => write!(
                 f,
                 "model order na = {na}, nb = {nb}: na + nb (+ 1 with a Coulomb term) must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+            ),
+            Self::SeekDesign(v) => write!(
+                f,
+                "time-optimal seek = {v}: α must be in (0, 1], the velocity pole in [0, 1), the braking curve increasing"
             ),
             Self::CoulombTerm => write!(
                 f,

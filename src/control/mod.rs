@@ -9,6 +9,7 @@
 //! | [`integrator`] | conditional integration (the anti-windup every integrating law shares) |
 //! | [`placement`] | slow-rate design: identified θ → velocity model → pole placement (f32, `libm`) |
 //! | [`compensation`] | inverse of a Hammerstein input map (the paper's tanh neuron), as a table |
+//! | [`seek`] | time-optimal seeks: the braking curve of the identified model and the PTOS law |
 //! | [`scheduled`] | the scheduled law: [`scheduled::regions`] (seek / settle / hold), transfers, [`scheduled::supervisor`] and fallback |
 //! | [`flags`] | what a controller reports each sample |
 //!
@@ -27,6 +28,7 @@ pub mod integrator;
 pub mod pid;
 pub mod placement;
 pub mod scheduled;
+pub mod seek;
 
 pub use compensation::InverseInputMap;
 pub use flags::ControlFlags;
@@ -34,7 +36,8 @@ pub use pid::{DerivativeOn, PidConfig, PidDesign, PidFlags, PidOutput, PidState}
 pub use placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
 pub use scheduled::regions::{Region, RegionDesign, RegionSelector};
 pub use scheduled::supervisor::{DISTRUST, ModelReport, Redesign};
-pub use scheduled::{ScheduledConfig, ScheduledDesign, ScheduledState};
+pub use scheduled::{ScheduledConfig, ScheduledDesign, ScheduledState, SeekMode};
+pub use seek::{BrakingCurve, SeekPlan, TimeOptimalDesign};
 
 /// Controller design errors are the library's [`ConfigError`] (one enum names every parameter).
 pub use crate::error::ConfigError;

@@ -36,6 +36,7 @@
 //! pole_max (same b).
 
 use super::ConfigError;
+use super::seek::SeekPlan;
 use crate::num::fixed::ParamI12F20;
 use crate::num::gain::Gain;
 use crate::words::{WordReader, WordWriter, Words};
@@ -220,6 +221,9 @@ pub struct ModelGains {
     pub obs_b: Gain,
     /// Velocity observer: l on the measured position difference.
     pub obs_l: Gain,
+    /// The time-optimal seek's plan ([`super::seek`]; [`SeekPlan::NONE`] for reference-following
+    /// seeks).
+    pub seek: SeekPlan,
 }
 
 impl ModelGains {
@@ -241,7 +245,7 @@ impl ModelGains {
             self.obs_l,
         ];
         if all.iter().all(|g| g.is_valid()) {
-            Ok(())
+            self.seek.validate()
         } else {
             Err(ConfigError::InitialModel(f64::NAN))
         }
@@ -261,6 +265,7 @@ impl ModelGains {
         obs_a: Gain::ZERO,
         obs_b: Gain::ZERO,
         obs_l: Gain::ZERO,
+        seek: SeekPlan::NONE,
     };
 }
 
@@ -360,6 +365,7 @@ pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelG
         obs_a: unit((1.0 - l) * a)?,
         obs_b: Gain::from_f64(f64::from((1.0 - l) * b)).ok_or(Rejection::GainFormat)?,
         obs_l: unit(l)?,
+        seek: SeekPlan::NONE,
     })
 }
 
@@ -448,7 +454,8 @@ impl Words for ModelGains {
         ]
         .put(w)?;
         self.rest_samples.put(w)?;
-        self.rest_speed_i16f16.put(w)
+        self.rest_speed_i16f16.put(w)?;
+        self.seek.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
         let [
@@ -478,6 +485,7 @@ impl Words for ModelGains {
             obs_a,
             obs_b,
             obs_l,
+            seek: SeekPlan::take(r),
         }
     }
 }

@@ -318,10 +318,11 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 180 (3 of framing, the
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 231 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's
-/// settings, the controller with both maps; `host-tests/tests/sled_loop.rs` counts them).
-pub const SERVO_WORDS_MAX: usize = 192;
+/// settings, the controller with both maps and time-optimal seeks; `host-tests/tests/sled_loop.rs`
+/// counts them).
+pub const SERVO_WORDS_MAX: usize = 256;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, with the servo's own

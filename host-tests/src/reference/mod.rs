@@ -22,3 +22,4 @@ pub mod nonlinear;
 pub mod nonlinear_batch;
 pub mod rls;
 pub mod scheduled;
+pub mod seek;

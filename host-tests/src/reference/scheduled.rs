@@ -13,6 +13,8 @@ use sledid::control::placement::PlacementDesign;
 use sledid::control::{ConfigError, ControlFlags, ControlOutput, Region, ScheduledDesign};
 
 use super::control::PidF64;
+use super::seek::SeekF64;
+use sledid::control::SeekMode;
 
 /// Gains in full scale per quantum (per sample for Ki), and the observer's.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -142,6 +144,9 @@ pub struct ScheduledF64 {
     gains: Option<GainsF64>,
     /// The prior's gains: the fallback's, where there is a prior.
     prior: Option<GainsF64>,
+    /// The time-optimal seek's plan in use, and the prior's (the fallback's).
+    seek: Option<SeekF64>,
+    prior_seek: Option<SeekF64>,
     /// (w, a, c) of the compensated input map.
     map: Option<(f64, f64, f64)>,
     /// (w, a, c) of the compensated Wiener output map.
@@ -168,6 +173,20 @@ impl ScheduledF64 {
         let gains = design
             .prior_model
             .map(|(a, b)| place_f64(a, b, &design.prior_placement));
+        let level = |m: Option<sledid::control::InverseInputMap>| {
+            m.map_or(0.0, |m| -m.neuron().w().to_f64()).max(0.0)
+        };
+        let prior_seek = match (design.seek, design.prior_model) {
+            (SeekMode::TimeOptimal(t), Some((a, b))) => SeekF64::new(
+                a,
+                b,
+                level(design.compensation),
+                design.baseline.u_limit_v / design.baseline.u_full_scale_v,
+                t.alpha_prior,
+                t.velocity_pole,
+            ),
+            _ => None,
+        };
         let wac = |m: sledid::control::InverseInputMap| {
             let n = m.neuron();
             (n.w().to_f64(), n.a().to_f64(), n.c().to_f64())
@@ -176,6 +195,8 @@ impl ScheduledF64 {
             design: *design,
             gains,
             prior: gains,
+            seek: prior_seek.clone(),
+            prior_seek,
             map: design.compensation.map(wac),
             output_map: design.output_map.map(wac),
             y1: 0.0,
@@ -232,6 +253,11 @@ impl ScheduledF64 {
                         (-u_c, 0.9 / u_c, 0.0)
                     });
             }
+            if let SeekMode::TimeOptimal(t) = d.seek {
+                let u_c = self.map.map_or(0.0, |(w, _, _)| -w).max(0.0);
+                let u_max = d.baseline.u_limit_v / d.baseline.u_full_scale_v;
+                self.seek = SeekF64::new(a, b, u_c, u_max, t.alpha, t.velocity_pole);
+            }
         }
     }
 
@@ -264,6 +290,11 @@ impl ScheduledF64 {
         let (dy1, dr1) = (y - self.y1, r - self.r1);
         let ar = dr1 - self.dr1_previous;
         (self.y1, self.r1, self.dr1_previous) = (y, r, dr1);
+        let plan = if fallback && self.prior.is_some() {
+            self.prior_seek.clone()
+        } else {
+            self.seek.clone()
+        };
         let gains = if fallback && self.prior.is_some() {
             self.prior
         } else {
@@ -283,6 +314,13 @@ impl ScheduledF64 {
         });
         self.v_hat = g.obs_a * self.v_hat + g.obs_b * self.last_v + g.obs_l * dy1;
         let previous = std::mem::replace(&mut self.mode, mode);
+        let entering_settle = matches!(mode, LawMode::Fine | LawMode::Coast | LawMode::Settle);
+        if previous == LawMode::Seek
+            && entering_settle
+            && let Some(plan) = &plan
+        {
+            self.v_hat = plan.velocity(dy1, self.last_v);
+        }
         let region = |m: LawMode| match m {
             LawMode::Hold => Some(Region::Hold),
             LawMode::Seek => Some(Region::Seek),
@@ -311,6 +349,11 @@ impl ScheduledF64 {
                 self.last_v = self.forward(u);
                 return u;
             }
+            LawMode::Seek if plan.is_some() => (
+                plan.as_ref().map_or(0.0, |p| p.drive(e, dy1, self.last_v)),
+                false,
+                true,
+            ),
             LawMode::Seek => (
                 g.kp_seek * e + g.kd_seek * (dr1 - self.v_hat) + g.kv_ff * dr1 + g.ka_ff * ar,
                 false,

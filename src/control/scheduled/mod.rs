@@ -8,6 +8,7 @@
 //! ```text
 //! e = r − y,  d_y = y(k) − y(k−2),  d_r = r(k) − r(k−2),  v_r = r(k) − r(k−1),  Δv_r = v_r(k) − v_r(k−1)
 //! Seek:    v = Kp_s·e + Kd_s/2·(d_r − d_y) + (1 − a)/b·v_r + Δv_r/b + I,   I ← I − I/2⁴ (fades)
+//!          (time-optimal seeks, [`super::seek`]: v = ((1 − p)·sgn(e)·G⁻¹(|e|) + (p − a)·v̂)/b, r the target)
 //! Settle:  v = Kp_z·e − Kd_z/2·d_y + I,   I ← clamp(I + Ki_z·e, ±I_max)   (conditional integration)
 //! Hold:    u = u_hold,  I frozen                                           (dead band: no limit cycle)
 //! u = clamp(h⁻¹(v), ±u_max)                                                (compensation optional)
@@ -58,6 +59,7 @@ use super::compensation::InverseInputMap;
 use super::integrator::integrate;
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
+use super::seek::{SeekPlan, TimeOptimalDesign};
 use super::{ConfigError, ControlFlags, ControlInput, ControlOutput, Controller, PidFlags};
 use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
@@ -69,6 +71,33 @@ use observer::VelocityObserver;
 use regions::{Region, RegionDesign, RegionSelector};
 use rest::NearTarget;
 use supervisor::{DISTRUST, ModelReport, Redesign};
+
+/// How the Seek region drives the sled.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SeekMode {
+    /// Follow the reference r(k) (PD with the model-inverse feedforward): for users whose
+    /// trajectory comes from elsewhere.
+    #[default]
+    FollowReference,
+    /// r is the target ("go to track N"): full drive, then braking along the identified model's
+    /// curve, handed to the settle law near the target ([`super::seek`]).
+    TimeOptimal(TimeOptimalDesign),
+}
+
+impl SeekMode {
+    /// Time-optimal seeks with the default α and velocity pole, and regions for a target that
+    /// jumps: Settle within 3 quanta, back to Seek beyond 12.
+    pub fn time_optimal() -> (Self, RegionDesign) {
+        (
+            Self::TimeOptimal(TimeOptimalDesign::default()),
+            RegionDesign {
+                settle_enter_quanta: 3.0,
+                settle_leave_quanta: 12.0,
+                ..RegionDesign::default()
+            },
+        )
+    }
+}
 
 /// User-facing settings; [`ScheduledDesign::build`] validates and quantises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +132,9 @@ pub struct ScheduledDesign {
     pub prior_model: Option<(f64, f64)>,
     /// Inverse of the static input map the loop starts with (the prior's friction), if any.
     pub compensation: Option<InverseInputMap>,
+    /// How seeks are driven: along the reference, or time-optimally to the target the reference
+    /// jumps to.
+    pub seek: SeekMode,
     /// Inverse of a Wiener output map `m(x) = x + w·tanh(a·x + c)` (quanta, centred on the
     /// reference, as the paper's Wiener model of [`crate::ident::nonlinear`] identifies it): every
     /// law — its P and I terms and the velocity observer — acts on the linear position
@@ -134,8 +166,18 @@ impl ScheduledDesign {
             identify_friction: true,
             prior_model: None,
             compensation: None,
+            seek: SeekMode::FollowReference,
             output_map: None,
         }
+    }
+
+    /// This design with time-optimal seeks ([`SeekMode::time_optimal`]: the default α, velocity
+    /// pole and regions).
+    pub fn with_time_optimal_seeks(mut self) -> Self {
+        let (seek, regions) = SeekMode::time_optimal();
+        self.seek = seek;
+        self.regions = regions;
+        self
     }
 
     /// Validates and quantises; places the prior model's gains if there is one.
@@ -171,7 +213,15 @@ impl ScheduledDesign {
         }
         let eps_limit = SignalI16F16::from_f64(self.supervisor.eps_limit_quanta)
             .map_err(|_| ConfigError::SupervisorLimit(self.supervisor.eps_limit_quanta))?;
+        let seek = match self.seek {
+            SeekMode::FollowReference => None,
+            SeekMode::TimeOptimal(d) => {
+                d.validate()?;
+                Some(d)
+            }
+        };
         let mut config = ScheduledConfig {
+            seek,
             baseline,
             selector,
             placement: self.placement,
@@ -203,10 +253,18 @@ impl ScheduledDesign {
                 &self.supervisor,
             )
             .map_err(|_| ConfigError::InitialModel(a))?;
-            config.prior_gains = Some(
-                super::placement::place(model, &self.prior_placement)
-                    .map_err(|_| ConfigError::InitialModel(b))?,
-            );
+            let mut gains = super::placement::place(model, &self.prior_placement)
+                .map_err(|_| ConfigError::InitialModel(b))?;
+            if let Some(d) = seek {
+                gains.seek = config
+                    .seek_plan(
+                        model,
+                        compensation_level(self.compensation.as_ref()),
+                        d.alpha_prior,
+                    )
+                    .ok_or(ConfigError::SeekDesign(d.alpha_prior))?;
+            }
+            config.prior_gains = Some(gains);
         }
         config.validate()?;
         Ok(config)
@@ -234,6 +292,8 @@ pub struct ScheduledConfig {
     /// The input compensation the loop starts with.
     compensation: Option<InverseInputMap>,
     output_map: Option<InverseInputMap>,
+    /// Time-optimal seeks (`None`: seeks follow the reference).
+    seek: Option<TimeOptimalDesign>,
 }
 
 /// Everything a step mutates.
@@ -423,6 +483,9 @@ impl ScheduledConfig {
         if self.identify_friction && !self.model_coulomb {
             return Err(ConfigError::CoulombTerm);
         }
+        if let Some(d) = &self.seek {
+            d.validate()?;
+        }
         let i_max = self.integrator_limit_i32f32;
         if !(0..=LIMIT_I32F32_MAX).contains(&i_max) {
             return Err(ConfigError::IntegratorLimit(from_fixed(i_max, 32)));
@@ -461,6 +524,27 @@ impl ScheduledConfig {
     /// The baseline PID (the fallback).
     pub fn baseline(&self) -> &PidConfig {
         &self.baseline
+    }
+
+    /// The time-optimal seek plan of `model` (u_c: the Coulomb level compensated, fraction of full
+    /// scale) braking at `alpha`; `None` when the model cannot brake or a gain does not fit.
+    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+    fn seek_plan(&self, model: VelocityModel, u_c: f32, alpha: f64) -> Option<SeekPlan> {
+        let d = self.seek?;
+        let u_max = self.baseline.u_limit().to_f64() as f32;
+        SeekPlan::design(
+            model.a,
+            model.b,
+            u_c,
+            u_max,
+            alpha as f32,
+            d.velocity_pole as f32,
+        )
+    }
+
+    /// Time-optimal seeks, if configured.
+    pub fn seek(&self) -> Option<&TimeOptimalDesign> {
+        self.seek.as_ref()
     }
 
     /// θ ends with a Coulomb term.
@@ -543,7 +627,7 @@ impl ScheduledConfig {
         };
         // The model's input over the last sample: the linear drive, after friction compensation.
         let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
-        let v_hat = state.observer.update(&g, v_prev, dy1, &mut sat);
+        let mut v_hat = state.observer.update(&g, v_prev, dy1, &mut sat);
         let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
         let ar = dr1.saturating_sub(state.dr1_previous);
         (state.y1, state.r1) = (y_lin, r.raw());
@@ -565,6 +649,12 @@ impl ScheduledConfig {
         let changed = region != previous;
         if changed {
             state.near.enter(e, region == Region::Seek);
+        }
+        if changed && previous == Region::Seek && self.seek.is_some() {
+            // Out of a time-optimal seek: the observer lags the braking; its estimate restarts at
+            // the seek's own (from the last increment and drive).
+            v_hat = g.seek.velocity(dy1, v_prev);
+            state.observer.restart(v_hat);
         }
         flags.set_if(ControlFlags::REGION_CHANGED, changed);
         // A redesign on entering Settle, and again while settling once the identifier has
@@ -625,6 +715,8 @@ impl ScheduledConfig {
                     flags,
                 };
             }
+            // Time-optimal: full drive, then the braking curve to the target (r).
+            Region::Seek if self.seek.is_some() => (g.seek.drive(e_lin, dy1, v_prev), false, true),
             // Each term < 2^62 in magnitude; four of them are summed saturating.
             Region::Seek => (
                 g.kp_seek
@@ -796,7 +888,20 @@ impl Controller for ScheduledConfig {
                     let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
                     // b_sum > 0: reduce refuses a non-positive gain (Σb has the sign of b).
                     m.coulomb_fs = ParamI12F20::from_raw(c).to_f32() / b_sum;
-                    super::placement::place(m, &self.placement).map(|g| (m, g))
+                    let mut g = super::placement::place(m, &self.placement)?;
+                    if let Some(d) = self.seek {
+                        let u_c = if self.identify_friction {
+                            coulomb_compensation(m.coulomb_fs)
+                                .as_ref()
+                                .map_or(0.0, |map| compensation_level(Some(map)))
+                        } else {
+                            compensation_level(self.compensation.as_ref())
+                        };
+                        g.seek = self
+                            .seek_plan(m, u_c, d.alpha)
+                            .ok_or(Rejection::GainFormat)?;
+                    }
+                    Ok((m, g))
                 })
             }
         };
@@ -853,7 +958,8 @@ impl Words for ScheduledConfig {
         self.model_coulomb.put(w)?;
         self.identify_friction.put(w)?;
         self.compensation.put(w)?;
-        self.output_map.put(w)
+        self.output_map.put(w)?;
+        self.seek.put(w)
     }
     #[inline(never)] // written straight into the caller's result, not into a copy on its stack
     fn take(r: &mut WordReader<'_>) -> Self {
@@ -884,8 +990,19 @@ impl Words for ScheduledConfig {
             identify_friction,
             compensation: <Option<InverseInputMap> as Words>::take(r),
             output_map: <Option<InverseInputMap> as Words>::take(r),
+            seek: <Option<TimeOptimalDesign> as Words>::take(r),
         }
     }
+}
+
+/// The Coulomb level a compensation map takes off the drive at speed: −w of its neuron (0 without
+/// a map), fraction of full scale.
+fn compensation_level(map: Option<&InverseInputMap>) -> f32 {
+    // w ≤ 0 for a friction map: −w from the raw value, no float arithmetic.
+    map.map_or(0.0, |m| {
+        ParamI12F20::from_raw(m.neuron().w().raw().saturating_neg()).to_f32()
+    })
+    .max(0.0)
 }
 
 /// `v` less a dead zone of l/2 quanta per sample (half what one flicker of the reading moves v̂

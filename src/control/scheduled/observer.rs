@@ -61,6 +61,12 @@ impl VelocityObserver {
         self.v_hat
     }
 
+    /// Restarts v̂ at `v_hat` (I16F16 raw quanta per sample), v̄ kept: the hand-over from a
+    /// time-optimal seek, whose own estimate is current where the observer lags a hard braking.
+    pub fn restart(&mut self, v_hat: i32) {
+        self.v_hat = v_hat;
+    }
+
     /// v̂, I16F16 raw quanta per sample.
     pub const fn velocity(&self) -> i32 {
         self.v_hat
