@@ -73,6 +73,9 @@ pub enum ConfigError {
     /// Time-optimal seek: α not in (0, 1], a velocity pole not in [0, 1), or a braking curve
     /// that is not increasing.
     SeekDesign(f64),
+    /// Safety layer: end stops not finite or not ordered, a negative margin or coasting time, a
+    /// zero count, more than 7 fallbacks.
+    Safety(f64),
     /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
     ModelOrder {
         /// Output (denominator) order.
@@ -172,6 +175,10 @@ impl fmt::Display for ConfigError {
             Self::ModelOrder { na, nb, n } => write!(
                 f,
                 "model order na = {na}, nb = {nb}: na + nb (+ 1 with a Coulomb term) must equal the parameter count {n} (na ≥ 1, nb ≥ 1)"
+            ),
+            Self::Safety(v) => write!(
+                f,
+                "safety = {v}: end stops finite and ordered with room between the margins, margins and coasting ≥ 0, counts ≥ 1, at most 7 fallbacks"
             ),
             Self::SeekDesign(v) => write!(
                 f,

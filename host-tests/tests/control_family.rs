@@ -12,11 +12,12 @@
 //! | ≥ 20 % faster than frozen where the prior is > 30 % off | 79.5 % of 195 | 86.2 % of 196 | ≥ 75 % (target: all) |
 //! | holding error ≤ 1 quantum | true ≤ 1.49 (read ≤ 2) | the same | true < 1.5: held at most one cell off |
 //! | friction identified shortens settling on high-friction plants | 0.987× linear-only | 0.984× | < 1 |
+//! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 1 (the linear-only variant, plant 24) | servo 0, all variants ≤ 1 |
 //!
 //! What trips each: a servo without identification (clean falls to the frozen servo's ≈ 80 %,
 //! and the off-prior gain to 0), a placement off its poles (settling ratio), a hold rule that lets
 //! a sled rest two cells off (true error ≥ 1.5), compensation that ignores the identified
-//! friction (ratio ≥ 1).
+//! friction (ratio ≥ 1), a safety layer that takes braking for a runaway (safe stops).
 
 use sledid_host::control::family_eval::{FamilyOptions, FamilyStats, evaluate, stats_table};
 
@@ -66,6 +67,13 @@ fn the_servo_holds_up_on_the_plant_family() {
             s.hold_true_error_max_quanta
         );
         assert!(s.high_friction >= 30, "seed {seed}: {}", s.high_friction);
+        assert!(s.servo_samples > 10_000_000, "{}", s.servo_samples);
+        assert_eq!(s.safe_stops_servo, 0, "seed {seed}: a false safe stop");
+        assert!(
+            s.safe_stops <= 1,
+            "seed {seed}: {} safe stops",
+            s.safe_stops
+        );
         assert!(
             s.high_friction_settling_ratio < 1.0,
             "seed {seed}: {}",

@@ -342,6 +342,7 @@ impl LoopBench {
             controller,
             velocity,
             options: sledid::servo::ServoOptions::default(),
+            safety: sledid::servo::SafetyDesign::default(),
         }
         .build()
         .ok()?;

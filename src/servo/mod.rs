@@ -44,8 +44,10 @@ use crate::words::{WordReader, WordWriter, Words};
 
 pub mod hal;
 pub mod handover;
+pub mod safety;
 
 pub use handover::{Handover, HandoverEvent, Posted, Ticket};
+pub use safety::{SafetyConfig, SafetyDesign, SafetyState, StopReason};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity with a Coulomb term).
 pub const VELOCITY_N: usize = 3;
@@ -71,6 +73,8 @@ pub struct ServoDesign {
     pub velocity: IdentifierDesign<VELOCITY_N, LinearDesign<VELOCITY_N>>,
     /// The servo's own settings (hand-over latency, identification).
     pub options: ServoOptions,
+    /// The safety layer below the controller.
+    pub safety: SafetyDesign,
 }
 
 /// Whether the identifier learns on-line.
@@ -200,6 +204,7 @@ pub struct ServoConfig<C, I> {
     controller: C,
     identifier: I,
     settings: ServoSettings,
+    safety: SafetyConfig,
 }
 
 /// Everything one sample (or an adopted redesign) mutates.
@@ -214,6 +219,9 @@ pub struct ServoState<C: Controller, I: Identifier> {
     y1: i64,
     y2: i64,
     handover: Handover<C::Job, C::Design>,
+    safety: SafetyState,
+    /// The controller was in its fallback on the last sample.
+    in_fallback: bool,
 }
 
 /// What the servo itself did in one sample (beside the controller's [`ControlFlags`]).
@@ -230,12 +238,16 @@ impl ServoFlags {
     pub const REDESIGN_ADOPTED: Self = Self(1 << 1);
     /// A redesign due this sample was not delivered in time: the old values stay.
     pub const HANDOVER_MISSED: Self = Self(1 << 2);
+    /// The safety layer has cut the drive ([`ServoOutput::stop`] says why); latched until
+    /// [`ServoConfig::reset_safe_stop`].
+    pub const SAFE_STOP: Self = Self(1 << 3);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 3] = [
+    pub const NAMES: [(Self, &'static str); 4] = [
         (Self::REDESIGN_POSTED, "redesign_posted"),
         (Self::REDESIGN_ADOPTED, "redesign_adopted"),
         (Self::HANDOVER_MISSED, "handover_missed"),
+        (Self::SAFE_STOP, "safe_stop"),
     ];
 }
 
@@ -250,8 +262,10 @@ pub struct ServoOutput<O> {
     pub region: Region,
     /// The controller's flags (`FALLBACK` when the supervisor distrusts the model).
     pub control: ControlFlags,
-    /// The servo's own flags (redesign hand-over).
+    /// The servo's own flags (redesign hand-over, safe stop).
     pub servo: ServoFlags,
+    /// Why the drive is cut, while it is (latched).
+    pub stop: Option<StopReason>,
     /// The identifier's output (for the velocity identifier: ŷ, ε, θ, status).
     pub identifier: O,
 }
@@ -265,6 +279,13 @@ impl ServoDesign {
             .compensation
             .map_or(0.0, |m| -m.neuron().w().to_f64())
             .max(0.0);
+        // The sled coasts a/(1 − a) samples per unit of speed once the drive is cut; twice that,
+        // plus two samples, for a model that may be off.
+        let coast_samples = controller
+            .prior_model
+            .map_or(SafetyDesign::default().coast_samples, |(a, _)| {
+                2.0 * a.clamp(0.0, 0.99) / (1.0 - a.clamp(0.0, 0.99)) + 2.0
+            });
         Self {
             velocity: velocity_identifier(
                 controller.prior_model.unwrap_or((0.8, 20.0)),
@@ -272,6 +293,13 @@ impl ServoDesign {
             ),
             controller,
             options: ServoOptions::default(),
+            safety: SafetyDesign {
+                coast_samples,
+                // Far above the prior's breakaway drive (its Coulomb level, stiction ×3, ×8): a
+                // sled sticking harder than that is held by more than friction.
+                stall_drive_fs: (24.0 * coulomb_fs).clamp(0.1, 0.5),
+                ..SafetyDesign::default()
+            },
         }
     }
 
@@ -286,6 +314,7 @@ impl ServoDesign {
             self.controller.build()?,
             self.velocity.build()?,
             self.options.build()?,
+            self.safety.build()?,
         );
         config.check_model()?;
         Ok(config)
@@ -312,27 +341,48 @@ impl ServoDesign {
         };
         self.velocity.put_words(&mut w).map_err(at)?;
         built.settings.put(&mut w).map_err(at)?;
+        built.safety.put(&mut w).map_err(at)?;
         built.controller.put(&mut w).map_err(at)?;
         let payload_len = w.len();
         crate::words::seal(out, payload_len)
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 231 (3 of framing, the
-/// velocity identifier with a stuck-sensor check and a pole radius, the servo's
-/// settings, the controller with both maps and time-optimal seeks; `host-tests/tests/sled_loop.rs`
-/// counts them).
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 246 (3 of framing, the
+/// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings and
+/// safety layer, the controller with both maps and time-optimal seeks;
+/// `host-tests/tests/sled_loop.rs` counts them).
 pub const SERVO_WORDS_MAX: usize = 256;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, with the servo's own
-    /// settings.
-    pub fn new(controller: C, identifier: I, settings: ServoSettings) -> Self {
+    /// settings and safety layer.
+    pub fn new(
+        controller: C,
+        identifier: I,
+        settings: ServoSettings,
+        safety: SafetyConfig,
+    ) -> Self {
         Self {
             controller,
             identifier,
             settings,
+            safety,
         }
+    }
+
+    /// The safety layer's configuration.
+    pub fn safety(&self) -> &SafetyConfig {
+        &self.safety
+    }
+
+    /// Releases a latched safe stop: the controller restarts from its initial state (its
+    /// integrators and regions would otherwise resume from before the stop), the identifier keeps
+    /// what it learnt. The only way out of a safe stop.
+    pub fn reset_safe_stop(&self, state: &mut ServoState<C, I>) {
+        state.safety = SafetyState::new();
+        state.controller = self.controller.new_state();
+        state.in_fallback = false;
     }
 
     /// A fresh state.
@@ -346,6 +396,8 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             y1: 0,
             y2: 0,
             handover: Handover::new(),
+            safety: SafetyState::new(),
+            in_fallback: false,
         }
     }
 
@@ -421,6 +473,18 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         u_applied: Option<SignalI16F16>,
     ) -> ServoOutput<I::Output> {
         let mut servo = ServoFlags::NONE;
+        if let Some(reason) = state.safety.stopped() {
+            // Latched: the drive stays cut, nothing steps until the reset.
+            state.k = state.k.wrapping_add(1);
+            return ServoOutput {
+                u: SignalI16F16::ZERO,
+                region: Region::Hold,
+                control: ControlFlags::NONE,
+                servo: ServoFlags::SAFE_STOP,
+                stop: Some(reason),
+                identifier: self.identifier.reject(&mut state.identifier),
+            };
+        }
         let y = measured.unwrap_or(state.last_y);
         state.last_y = y;
         let mut report = state.report;
@@ -438,7 +502,21 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
         }
         let input = ControlInput { r, y, report };
-        let out = self.controller.step(&mut state.controller, &input);
+        let mut out = self.controller.step(&mut state.controller, &input);
+        let falling_back = out.flags.contains(ControlFlags::FALLBACK);
+        let stop = self.safety.check(
+            &mut state.safety,
+            r,
+            measured,
+            out.u,
+            out.flags.contains(ControlFlags::OUTPUT_SATURATED),
+            falling_back && !state.in_fallback,
+        );
+        state.in_fallback = falling_back;
+        if stop.is_some() {
+            out.u = SignalI16F16::ZERO;
+            servo.insert(ServoFlags::SAFE_STOP);
+        }
         let u_plant = u_applied.unwrap_or(out.u);
         // Identify from motion only: at low speed the first-differenced quantisation noise
         // (negatively correlated from one difference to the next) biases the velocity pole down.
@@ -469,6 +547,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             region: out.region,
             control: out.flags,
             servo,
+            stop,
             identifier: identified,
         }
     }
@@ -505,6 +584,11 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
     pub fn identifier(&self) -> &I::State {
         &self.identifier
     }
+
+    /// The latched safe stop, if any.
+    pub fn safe_stop(&self) -> Option<StopReason> {
+        self.safety.stopped()
+    }
 }
 
 impl<C: Controller, I: Identifier> Clone for ServoState<C, I>
@@ -522,6 +606,8 @@ where
             y1: self.y1,
             y2: self.y2,
             handover: self.handover,
+            safety: self.safety,
+            in_fallback: self.in_fallback,
         }
     }
 }
@@ -570,11 +656,13 @@ impl SledServo {
         let mut r = WordReader::new(payload);
         let identifier = IdentifierConfig::take_words(&mut r)?;
         let settings = ServoSettings::take(&mut r);
+        let safety = SafetyConfig::take(&mut r);
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
             identifier,
             settings,
+            safety,
         });
         let done = r
             .finish()
@@ -596,6 +684,7 @@ impl SledServo {
     /// The part's [`ConfigError`].
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.settings.validate()?;
+        self.safety.validate()?;
         self.identifier.validate()?;
         self.controller.validate()?;
         self.check_model()

@@ -73,6 +73,8 @@ pub struct RunBrief {
     pub fallbacks: usize,
     /// Redesigns applied.
     pub redesigns_applied: usize,
+    /// The safety layer stopped the servo.
+    pub safe_stop: bool,
 }
 
 impl RunBrief {
@@ -86,6 +88,7 @@ impl RunBrief {
             hold_true_error_max_quanta: s.hold_true_error_quanta.max,
             fallbacks: s.fallbacks,
             redesigns_applied: s.redesigns.applied,
+            safe_stop: s.safe_stop.is_some(),
         }
     }
 
@@ -115,6 +118,8 @@ pub struct PlantResult {
     pub frozen: RunBrief,
     /// The servo without friction identification.
     pub linear_only: RunBrief,
+    /// Samples of one run.
+    pub samples: u64,
 }
 
 impl PlantResult {
@@ -168,6 +173,12 @@ pub struct FamilyStats {
     pub high_friction_events: usize,
     /// Over those: pulses + unsettled seeks, linear-only.
     pub high_friction_events_linear: usize,
+    /// Runs (any servo variant) the safety layer stopped: false stops on ordinary seeks.
+    pub safe_stops: usize,
+    /// Of those, runs of the servo itself (identified).
+    pub safe_stops_servo: usize,
+    /// Samples the servo variants stepped in all.
+    pub servo_samples: u64,
 }
 
 /// Everything `control-family` measured.
@@ -196,9 +207,13 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
         identification: Identification::FrozenAtPrior,
         ..ServoOptions::default()
     };
+    let samples = std::cell::Cell::new(0u64);
     let run = |d: Option<&sledid::control::ScheduledDesign>, o: ServoOptions| {
         run_with_options(&params, options.run_seed, options.seeks, d, o)
-            .map(|r| RunBrief::of(&r.summary))
+            .map(|r| {
+                samples.set(r.twin.samples().len() as u64);
+                RunBrief::of(&r.summary)
+            })
             .map_err(at)
     };
     let prior = &options.prior;
@@ -213,6 +228,7 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
         identified: run(Some(&design), ServoOptions::default())?,
         frozen: run(Some(&design), frozen)?,
         linear_only: run(Some(&linear), ServoOptions::default())?,
+        samples: samples.get(),
     })
 }
 
@@ -286,6 +302,16 @@ pub fn stats(plants: &[PlantResult]) -> FamilyStats {
         high_friction_settling_ratio: (log_ratio / high.len().max(1) as f64).exp(),
         high_friction_events: high.iter().map(|p| events(&p.identified)).sum(),
         high_friction_events_linear: high.iter().map(|p| events(&p.linear_only)).sum(),
+        safe_stops: plants
+            .iter()
+            .map(|p| {
+                usize::from(p.identified.safe_stop)
+                    + usize::from(p.frozen.safe_stop)
+                    + usize::from(p.linear_only.safe_stop)
+            })
+            .sum(),
+        safe_stops_servo: plants.iter().filter(|p| p.identified.safe_stop).count(),
+        servo_samples: plants.iter().map(|p| 3 * p.samples).sum(),
     }
 }
 
@@ -328,7 +354,8 @@ pub fn stats_table(s: &FamilyStats) -> String {
          | servo slower than frozen (> {NO_WORSE}×) | {} plants |\n\
          | prior > {:.0} % off: plants, ≥ 20 % faster than frozen | {}, {:.1} % |\n\
          | largest holding error in Hold: read / true | {:.0} / {:.2} quanta |\n\
-         | friction ≥ {HIGH_FRICTION}× prior: plants, settling identified / linear-only (geo. mean), events identified / linear-only | {}, {:.3}, {} / {} |\n",
+         | friction ≥ {HIGH_FRICTION}× prior: plants, settling identified / linear-only (geo. mean), events identified / linear-only | {}, {:.3}, {} / {} |\n\
+         | safe stops over {} servo samples (all variants / the servo) | {} / {} |\n",
         s.plants,
         100.0 * s.clean,
         100.0 * s.clean_frozen,
@@ -343,6 +370,9 @@ pub fn stats_table(s: &FamilyStats) -> String {
         s.high_friction,
         s.high_friction_settling_ratio,
         s.high_friction_events,
-        s.high_friction_events_linear
+        s.high_friction_events_linear,
+        s.servo_samples,
+        s.safe_stops,
+        s.safe_stops_servo
     )
 }

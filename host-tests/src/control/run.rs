@@ -4,7 +4,9 @@
 use serde::Serialize;
 use sledid::control::{ControlFlags, Redesign, Region, ScheduledDesign};
 use sledid::ident::step::IdentifierDesign;
-use sledid::servo::{ServoDesign, ServoOptions, SledServo, SledServoState, VELOCITY_N};
+use sledid::servo::{
+    SafetyDesign, ServoDesign, ServoOptions, SledServo, SledServoState, StopReason, VELOCITY_N,
+};
 
 use super::design::{identifier_design, scheduled_design_for};
 use super::summary::{ControlSummary, summarize};
@@ -33,6 +35,8 @@ pub struct ScheduledLoop {
     pub trace: Vec<(Region, ControlFlags)>,
     /// Every redesign outcome.
     pub redesigns: Vec<Redesign>,
+    /// The first safe stop: sample index and reason.
+    pub first_stop: Option<(usize, StopReason)>,
 }
 
 impl ScheduledLoop {
@@ -44,16 +48,33 @@ impl ScheduledLoop {
         Self::with_options(design, identifier, ServoOptions::default())
     }
 
-    /// As [`Self::new`], with the servo's options (hand-over latency, identification).
+    /// As [`Self::new`], with the servo's options (hand-over latency, identification) and its
+    /// default safety layer for this design ([`ServoDesign::new`]).
     pub fn with_options(
         design: &ScheduledDesign,
         identifier: &IdentifierDesign<VELOCITY_N>,
         options: ServoOptions,
     ) -> Result<Self, String> {
+        Self::with_safety(
+            design,
+            identifier,
+            options,
+            ServoDesign::new(*design).safety,
+        )
+    }
+
+    /// As [`Self::with_options`], with the safety layer `safety`.
+    pub fn with_safety(
+        design: &ScheduledDesign,
+        identifier: &IdentifierDesign<VELOCITY_N>,
+        options: ServoOptions,
+        safety: SafetyDesign,
+    ) -> Result<Self, String> {
         let config = ServoDesign {
             controller: *design,
             velocity: *identifier,
             options,
+            safety,
         }
         .build()
         .map_err(|e| e.to_string())?;
@@ -63,6 +84,7 @@ impl ScheduledLoop {
             u_full_scale_v: design.baseline.u_full_scale_v,
             trace: Vec::new(),
             redesigns: Vec::new(),
+            first_stop: None,
         })
     }
 
@@ -83,6 +105,9 @@ impl SledController for ScheduledLoop {
         if let Some(design) = self.config.run_background(&mut self.state) {
             self.redesigns.push(design.outcome);
         }
+        if let (None, Some(reason)) = (self.first_stop, out.stop) {
+            self.first_stop = Some((self.trace.len(), reason));
+        }
         self.trace.push((out.region, out.control));
         out.u.to_f64() * self.u_full_scale_v
     }
@@ -98,6 +123,19 @@ pub struct ControlRun {
     pub summary: ControlSummary,
     /// Every redesign outcome, in order (scheduled only).
     pub redesigns: Vec<Redesign>,
+    /// The servo's first safe stop (sample, reason), if any.
+    pub first_stop: Option<(usize, StopReason)>,
+}
+
+/// The servo's safety layer on the twin `params`: [`ServoDesign::new`]'s for `design`, with soft
+/// end stops half the twin's travel beyond the farthest target it commands (quanta of the plant).
+pub fn twin_safety(params: &TwinParams, design: &ScheduledDesign) -> SafetyDesign {
+    let travel = 1.5 * f64::from(params.reference.travel_tracks);
+    SafetyDesign {
+        travel_min_quanta: -travel,
+        travel_max_quanta: travel,
+        ..ServoDesign::new(*design).safety
+    }
 }
 
 /// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller
@@ -165,26 +203,38 @@ pub fn run_with_options(
     params.reference.targets_tracks = None;
     let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
     let p = &params.plant;
-    let (trace, redesigns, kind) = match design {
+    let (trace, redesigns, first_stop, kind) = match design {
         None => {
             let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
             let mut c = FixedPid::new(&design).map_err(|e| e.to_string())?;
             twin.set_controller_label("baseline_fixed_pid");
             twin.run(&mut c);
-            (Vec::new(), Vec::new(), ControllerKind::Baseline)
+            (Vec::new(), Vec::new(), None, ControllerKind::Baseline)
         }
         Some(design) => {
-            let mut c = ScheduledLoop::with_options(design, &identifier_design(design), options)?;
+            let mut c = ScheduledLoop::with_safety(
+                design,
+                &identifier_design(design),
+                options,
+                twin_safety(&params, design),
+            )?;
             twin.set_controller_label("scheduled");
             twin.run(&mut c);
-            (c.trace, c.redesigns, ControllerKind::Scheduled)
+            (
+                c.trace,
+                c.redesigns,
+                c.first_stop,
+                ControllerKind::Scheduled,
+            )
         }
     };
-    let summary = summarize(&twin, &trace, &redesigns, kind, seed);
+    let mut summary = summarize(&twin, &trace, &redesigns, kind, seed);
+    summary.safe_stop = first_stop.map(|(_, reason)| format!("{reason:?}"));
     Ok(ControlRun {
         twin,
         trace,
         summary,
         redesigns,
+        first_stop,
     })
 }

@@ -92,6 +92,8 @@ pub struct ControlSummary {
     pub redesigns: RedesignCounts,
     /// Largest |u| applied, V.
     pub u_peak_v: f64,
+    /// The servo's safe stop, if it stopped (reason).
+    pub safe_stop: Option<String>,
 }
 
 impl ControlSummary {
@@ -210,5 +212,6 @@ pub(crate) fn summarize(
             .count(),
         redesigns: counts,
         u_peak_v: samples.iter().fold(0.0, |m: f64, s| m.max(s.u_v.abs())),
+        safe_stop: None,
     }
 }

@@ -144,6 +144,7 @@ pub fn design() -> ServoDesign {
         controller,
         velocity,
         options: sledid::servo::ServoOptions::default(),
+        safety: sledid::servo::SafetyDesign::default(),
     }
 }
 

@@ -1,0 +1,596 @@
+//! The safety layer: below every controller, the servo cuts the drive to 0 and latches
+//! ([`super::ServoFlags::SAFE_STOP`], a [`StopReason`]) when the loop can no longer be trusted to
+//! keep the sled in its travel. Only an explicit reset ([`super::ServoConfig::reset_safe_stop`])
+//! releases it.
+//!
+//! # Triggers (per sample; e = r − y, Δy = y(k) − y(k−1), quanta)
+//! ```text
+//! runaway   N consecutive samples with |e| growing (e·Δe > 0, |Δe| ≥ 1) as the reading moves away
+//!           (e·Δy < 0: not a reference outrunning a slow sled) while the drive pushes toward the
+//!           reference (u·e > 0) or |Δe| > v_away, |e| growing in the second half of
+//!           them at least as much as in the first and by at least N/2 quanta (a sled braking
+//!           from an overshoot slows down, one creeping under friction gains less than a quantum
+//!           per two samples, one that leads a moving reference sees |e| shrink; one whose sensor
+//!           or drive is reversed runs off at growing or constant speed)
+//! travel    y + max(Δy, 0)·T_coast + m > travel_max   or   y + min(Δy, 0)·T_coast − m < travel_min
+//!           (the reading plus the distance the sled coasts with the drive cut, plus a margin)
+//! lost      more than K consecutive samples without a valid position (sample-and-hold bridges fewer)
+//! stall     S consecutive samples with |u| ≥ u_stall without the reading changing (a stuck
+//!           sensor or a blocked sled: a free sled moves a quantum within a few samples of a drive
+//!           above its breakaway)
+//! fallbacks more than M entries into the controller's fallback within W samples
+//! ```
+//! A reversed sensor or a reversed drive is a runaway (the sled moves away from the target with the
+//! drive toward it); a seek commanded past the travel stops at the soft end stop; a loop made
+//! unstable by a mass step runs away or reaches the travel; a sensor stuck while the drive is at
+//! its limit stalls.
+//!
+//! # Formats
+//! Positions I48F16 raw (`i64`), speeds and Δy I16F16 raw, T_coast a [`Gain`] (samples), counts
+//! `u16`/`u32`. Integer comparisons only.
+
+#![deny(clippy::float_arithmetic)]
+
+use crate::control::ConfigError;
+use crate::num::boundary::PositionI48F16;
+use crate::num::fixed::SignalI16F16;
+use crate::num::float_bits::from_fixed;
+use crate::num::gain::Gain;
+use crate::words::{WordReader, WordWriter, Words};
+
+/// Why the servo stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopReason {
+    /// Moving away from the target with the drive toward it (reversed sensor or drive, unstable
+    /// loop).
+    Runaway,
+    /// The sled would coast past a soft end stop.
+    Travel,
+    /// No valid position for too long.
+    SensorLost,
+    /// Full drive without the reading changing (stuck sensor, blocked sled).
+    Stall,
+    /// The controller fell back too often.
+    Fallbacks,
+}
+
+impl StopReason {
+    /// A code for logs and the firmware's result line: 1 … 5.
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Runaway => 1,
+            Self::Travel => 2,
+            Self::SensorLost => 3,
+            Self::Stall => 4,
+            Self::Fallbacks => 5,
+        }
+    }
+}
+
+/// Most fallback entries the window remembers.
+pub const FALLBACK_LIMIT_MAX: usize = 7;
+
+/// User-facing settings, in quanta and samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SafetyDesign {
+    /// Soft end stop below, quanta (absolute position).
+    pub travel_min_quanta: f64,
+    /// Soft end stop above, quanta.
+    pub travel_max_quanta: f64,
+    /// T_coast: samples the sled coasts per quantum per sample of speed once the drive is cut
+    /// (a/(1 − a) of its velocity model; more is safer).
+    pub coast_samples: f64,
+    /// m: fixed margin before the end stops, quanta.
+    pub travel_margin_quanta: f64,
+    /// N: consecutive samples moving away from the target that make a runaway.
+    pub runaway_samples: u16,
+    /// v_away: a speed away from the target that counts without the drive's direction, quanta per
+    /// sample.
+    pub runaway_speed_quanta: f64,
+    /// K: consecutive samples without a position that are still bridged.
+    pub lost_samples: u16,
+    /// S: consecutive samples with a drive of at least `stall_drive_fs` without a reading change.
+    pub stall_samples: u16,
+    /// u_stall, fraction of full scale (a few times the sled's breakaway drive).
+    pub stall_drive_fs: f64,
+    /// M: fallback entries allowed within the window (≤ 7).
+    pub fallback_limit: u8,
+    /// W: the window, samples.
+    pub fallback_window_samples: u32,
+}
+
+impl Default for SafetyDesign {
+    /// No end stops (±10¹² quanta), T_coast 16 samples, m 16 quanta, N 16, v_away 64 quanta per
+    /// sample, K 16, S 32 at u_stall 0.05, more than 4 fallbacks in 8,192 samples.
+    fn default() -> Self {
+        Self {
+            travel_min_quanta: -1.0e12,
+            travel_max_quanta: 1.0e12,
+            coast_samples: 16.0,
+            travel_margin_quanta: 16.0,
+            runaway_samples: 16,
+            runaway_speed_quanta: 64.0,
+            lost_samples: 16,
+            stall_samples: 32,
+            stall_drive_fs: 0.05,
+            fallback_limit: 4,
+            fallback_window_samples: 8192,
+        }
+    }
+}
+
+impl SafetyDesign {
+    /// Validates and quantises.
+    ///
+    /// # Errors
+    /// [`ConfigError::Safety`] naming the value: end stops not finite or not ordered, negative
+    /// margins or coasting, a zero count, more than 7 fallbacks.
+    #[allow(clippy::float_arithmetic)] // design time
+    pub fn build(&self) -> Result<SafetyConfig, ConfigError> {
+        let bad = ConfigError::Safety;
+        let pos = |q: f64| {
+            if q.is_finite() && q.abs() < 1.3e14 {
+                Ok((q * 65_536.0) as i64)
+            } else {
+                Err(bad(q))
+            }
+        };
+        let speed = |q: f64| {
+            SignalI16F16::from_f64(q)
+                .ok()
+                .filter(|s| s.raw() >= 0)
+                .map(|s| s.raw())
+                .ok_or(bad(q))
+        };
+        let config = SafetyConfig {
+            travel_min: pos(self.travel_min_quanta)?,
+            travel_max: pos(self.travel_max_quanta)?,
+            coast: Gain::from_f64(self.coast_samples)
+                .filter(|_| self.coast_samples >= 0.0)
+                .ok_or(bad(self.coast_samples))?,
+            margin: pos(self.travel_margin_quanta)?,
+            runaway_samples: self.runaway_samples,
+            runaway_speed: speed(self.runaway_speed_quanta)?,
+            lost_samples: self.lost_samples,
+            stall_samples: self.stall_samples,
+            stall_drive: speed(self.stall_drive_fs)?,
+            fallback_limit: self.fallback_limit,
+            fallback_window: self.fallback_window_samples,
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+/// Validated configuration (`Copy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SafetyConfig {
+    travel_min: i64,
+    travel_max: i64,
+    coast: Gain,
+    margin: i64,
+    runaway_samples: u16,
+    runaway_speed: i32,
+    lost_samples: u16,
+    stall_samples: u16,
+    /// u_stall, I16F16 raw full scale.
+    stall_drive: i32,
+    fallback_limit: u8,
+    fallback_window: u32,
+}
+
+impl SafetyConfig {
+    /// min + m < max − m, m ≥ 0, T_coast a valid non-negative gain, counts ≥ 1, M ∈ 1..=7, W ≥ 1.
+    ///
+    /// # Errors
+    /// [`ConfigError::Safety`] naming the value.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let q = |raw: i64| from_fixed(raw, 16);
+        if self.margin < 0 {
+            return Err(ConfigError::Safety(q(self.margin)));
+        }
+        let inner = self.travel_max.saturating_sub(self.margin);
+        if self.travel_min.saturating_add(self.margin) >= inner {
+            return Err(ConfigError::Safety(q(self.travel_max)));
+        }
+        if !self.coast.is_valid() || self.coast.apply(1 << 16) < 0 {
+            return Err(ConfigError::Safety(f64::NAN));
+        }
+        if self.runaway_speed < 0 || self.stall_drive < 0 {
+            return Err(ConfigError::Safety(q(i64::from(self.runaway_speed))));
+        }
+        let counts = [self.runaway_samples, self.lost_samples, self.stall_samples];
+        if counts.contains(&0) || self.fallback_window == 0 {
+            return Err(ConfigError::Safety(0.0));
+        }
+        if !(1..=FALLBACK_LIMIT_MAX as u8).contains(&self.fallback_limit) {
+            return Err(ConfigError::Safety(f64::from(self.fallback_limit)));
+        }
+        Ok(())
+    }
+
+    /// One sample's check, after the controller's step: the reading `y` (`None`: lost), its
+    /// target `r`, the drive `u`, whether the drive is at its limit, whether the controller
+    /// entered its fallback this sample. Returns the reason when the servo must stop; the state
+    /// latches it.
+    pub fn check(
+        &self,
+        state: &mut SafetyState,
+        r: PositionI48F16,
+        y: Option<PositionI48F16>,
+        u: SignalI16F16,
+        saturated: bool,
+        fallback_entered: bool,
+    ) -> Option<StopReason> {
+        if let Some(reason) = state.latched {
+            return Some(reason);
+        }
+        let reason = self.judge(state, r, y, u, saturated, fallback_entered);
+        state.k = state.k.wrapping_add(1);
+        state.latched = reason;
+        reason
+    }
+
+    fn judge(
+        &self,
+        state: &mut SafetyState,
+        r: PositionI48F16,
+        y: Option<PositionI48F16>,
+        u: SignalI16F16,
+        saturated: bool,
+        fallback_entered: bool,
+    ) -> Option<StopReason> {
+        if fallback_entered {
+            // The oldest remembered entry falls out; M + 1 within W stops.
+            let k = state.k;
+            state.fallbacks.rotate_right(1);
+            if let Some(first) = state.fallbacks.first_mut() {
+                *first = Some(k);
+            }
+            let limit = usize::from(self.fallback_limit);
+            if let Some(Some(oldest)) = state.fallbacks.get(limit)
+                && k.wrapping_sub(*oldest) < self.fallback_window
+            {
+                return Some(StopReason::Fallbacks);
+            }
+        }
+        let Some(y) = y else {
+            state.lost = state.lost.saturating_add(1);
+            return (state.lost > self.lost_samples).then_some(StopReason::SensorLost);
+        };
+        state.lost = 0;
+        let previous = state.last_y.replace(y.raw());
+        let Some(previous) = previous else {
+            state.last_e = r.raw().saturating_sub(y.raw());
+            return None;
+        };
+        let dy = y.raw().saturating_sub(previous);
+        let dy_i16f16 = dy.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+        // Travel: where the sled would come to rest with the drive cut now.
+        let coast = self.coast.apply(dy_i16f16) >> 16;
+        let ahead = y
+            .raw()
+            .saturating_add(coast.max(0))
+            .saturating_add(self.margin);
+        let behind = y
+            .raw()
+            .saturating_add(coast.min(0))
+            .saturating_sub(self.margin);
+        if ahead > self.travel_max || behind < self.travel_min {
+            return Some(StopReason::Travel);
+        }
+        // Stall: a strong drive, no reading change.
+        let strong = saturated || u.raw().unsigned_abs() >= self.stall_drive.unsigned_abs();
+        state.stall = if strong && dy == 0 {
+            state.stall.saturating_add(1)
+        } else {
+            0
+        };
+        if state.stall >= self.stall_samples {
+            return Some(StopReason::Stall);
+        }
+        // Runaway: |e| growing with the drive toward the reference, or fast.
+        let e = r.raw().saturating_sub(y.raw());
+        let last_e = core::mem::replace(&mut state.last_e, e);
+        let de = e.saturating_sub(last_e);
+        // |e| growing because the reading moves away (not because a reference outruns the sled).
+        let away = e.signum() * dy.signum() < 0;
+        let growing = away && e.signum() * de.signum() > 0 && de.unsigned_abs() >= 1 << 16;
+        let pushing = e.signum() * i64::from(u.raw().signum()) > 0;
+        let fast = de.unsigned_abs() > u64::from(self.runaway_speed.unsigned_abs());
+        if !(growing && (pushing || fast)) {
+            state.runaway = 0;
+            return None;
+        }
+        if state.runaway == 0 {
+            state.runaway_from = last_e;
+        }
+        state.runaway = state.runaway.saturating_add(1);
+        if state.runaway == self.runaway_samples / 2 {
+            state.runaway_half = e;
+        }
+        if state.runaway < self.runaway_samples {
+            return None;
+        }
+        let first = state.runaway_half.abs_diff(state.runaway_from);
+        let second = e.abs_diff(state.runaway_half);
+        let enough = u64::from(self.runaway_samples / 2) << 16;
+        if second >= first && second >= enough {
+            return Some(StopReason::Runaway);
+        }
+        // Braking or creeping: watch the next N samples afresh.
+        state.runaway = 0;
+        None
+    }
+}
+
+/// What the safety layer remembers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SafetyState {
+    k: u32,
+    last_y: Option<i64>,
+    lost: u16,
+    stall: u16,
+    runaway: u16,
+    /// e on the last sample, I48F16 raw quanta.
+    last_e: i64,
+    /// e when the runaway count started and at its half, I48F16 raw.
+    runaway_from: i64,
+    runaway_half: i64,
+    fallbacks: [Option<u32>; FALLBACK_LIMIT_MAX + 1],
+    latched: Option<StopReason>,
+}
+
+impl SafetyState {
+    /// Nothing seen, not stopped.
+    pub const fn new() -> Self {
+        Self {
+            k: 0,
+            last_y: None,
+            lost: 0,
+            stall: 0,
+            runaway: 0,
+            last_e: 0,
+            runaway_from: 0,
+            runaway_half: 0,
+            fallbacks: [None; FALLBACK_LIMIT_MAX + 1],
+            latched: None,
+        }
+    }
+
+    /// The latched stop, if any.
+    pub const fn stopped(&self) -> Option<StopReason> {
+        self.latched
+    }
+}
+
+/// Words: end stops, margin (I48F16 raw), T_coast, counts, v_away, M, W.
+impl Words for SafetyConfig {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.travel_min.put(w)?;
+        self.travel_max.put(w)?;
+        self.margin.put(w)?;
+        self.coast.put(w)?;
+        self.runaway_samples.put(w)?;
+        self.runaway_speed.put(w)?;
+        self.lost_samples.put(w)?;
+        self.stall_samples.put(w)?;
+        self.stall_drive.put(w)?;
+        self.fallback_limit.put(w)?;
+        self.fallback_window.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self {
+            travel_min: i64::take(r),
+            travel_max: i64::take(r),
+            margin: i64::take(r),
+            coast: Gain::take(r),
+            runaway_samples: u16::take(r),
+            runaway_speed: i32::take(r),
+            lost_samples: u16::take(r),
+            stall_samples: u16::take(r),
+            stall_drive: i32::take(r),
+            fallback_limit: u8::take(r),
+            fallback_window: u32::take(r),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(q: i64) -> PositionI48F16 {
+        PositionI48F16::from_counts(q)
+    }
+
+    fn cfg() -> SafetyConfig {
+        SafetyDesign {
+            travel_min_quanta: -1000.0,
+            travel_max_quanta: 1000.0,
+            coast_samples: 5.0,
+            ..SafetyDesign::default()
+        }
+        .build()
+        .unwrap()
+    }
+
+    #[test]
+    fn the_design_is_checked() {
+        let d = SafetyDesign::default();
+        for bad in [
+            SafetyDesign {
+                travel_min_quanta: d.travel_max_quanta,
+                ..d
+            },
+            SafetyDesign {
+                fallback_limit: 8,
+                ..d
+            },
+            SafetyDesign {
+                coast_samples: f64::NAN,
+                ..d
+            },
+            SafetyDesign {
+                lost_samples: 0,
+                ..d
+            },
+        ] {
+            assert!(
+                matches!(bad.build(), Err(ConfigError::Safety(_))),
+                "{bad:?}"
+            );
+        }
+        assert!(d.build().is_ok());
+    }
+
+    #[test]
+    fn each_trigger_latches() {
+        let c = cfg();
+        let full = SignalI16F16::from_int(1);
+        // Travel: at 900 moving +30 per sample, the coast (150) passes 1000 − 16.
+        let mut s = SafetyState::new();
+        assert_eq!(
+            c.check(&mut s, p(0), Some(p(870)), full, false, false),
+            None
+        );
+        assert_eq!(
+            c.check(&mut s, p(0), Some(p(900)), full, false, false),
+            Some(StopReason::Travel)
+        );
+        // Latched whatever follows.
+        assert_eq!(
+            c.check(&mut s, p(0), Some(p(0)), SignalI16F16::ZERO, false, false),
+            Some(StopReason::Travel)
+        );
+        // Lost: the 17th missing sample.
+        let mut s = SafetyState::new();
+        for k in 0..16 {
+            assert_eq!(c.check(&mut s, p(0), None, full, false, false), None, "{k}");
+        }
+        assert_eq!(
+            c.check(&mut s, p(0), None, full, false, false),
+            Some(StopReason::SensorLost)
+        );
+        // Runaway: target ahead, drive toward it, reading moving away.
+        let mut s = SafetyState::new();
+        let mut stop = None;
+        for k in 0..40 {
+            stop = c.check(&mut s, p(500), Some(p(-k)), full, false, false);
+            if stop.is_some() {
+                assert_eq!(k, 16, "the 16th sample moving away");
+                break;
+            }
+        }
+        assert_eq!(stop, Some(StopReason::Runaway));
+        // Stall: full drive, no change.
+        let mut s = SafetyState::new();
+        let mut n = 0;
+        while c
+            .check(&mut s, p(500), Some(p(3)), full, true, false)
+            .is_none()
+        {
+            n += 1;
+        }
+        assert_eq!(s.stopped(), Some(StopReason::Stall));
+        assert_eq!(n, 32);
+        // Fallbacks: the fifth entry within the window.
+        let mut s = SafetyState::new();
+        for k in 0..4 {
+            assert_eq!(
+                c.check(&mut s, p(0), Some(p(0)), full, false, true),
+                None,
+                "{k}"
+            );
+        }
+        assert_eq!(
+            c.check(&mut s, p(0), Some(p(0)), full, false, true),
+            Some(StopReason::Fallbacks)
+        );
+    }
+
+    #[test]
+    fn ordinary_motion_does_not_stop() {
+        let c = SafetyDesign {
+            coast_samples: 5.0,
+            ..SafetyDesign::default()
+        }
+        .build()
+        .unwrap();
+        let mut s = SafetyState::new();
+        // A seek toward the target, then an overshoot braked within a few samples, a heavy sled's
+        // long overshoot braked over 60 samples (moving away, slowing down), spaced fallbacks.
+        for k in 0..60i64 {
+            let y = (k * 10).min(500);
+            assert_eq!(
+                c.check(
+                    &mut s,
+                    p(500),
+                    Some(p(y)),
+                    SignalI16F16::from_int(1),
+                    k < 30,
+                    false
+                ),
+                None,
+                "{k}"
+            );
+        }
+        for y in [505, 508, 509, 507, 503, 501, 500] {
+            assert_eq!(
+                c.check(
+                    &mut s,
+                    p(500),
+                    Some(p(y)),
+                    SignalI16F16::from_int(-1),
+                    false,
+                    false
+                ),
+                None
+            );
+        }
+        let mut y = 500i64;
+        for k in 0..60i64 {
+            y += 60 - k;
+            assert_eq!(
+                c.check(
+                    &mut s,
+                    p(500),
+                    Some(p(y)),
+                    SignalI16F16::from_int(-1),
+                    true,
+                    false
+                ),
+                None,
+                "braking {k}"
+            );
+        }
+        for _ in 0..40 {
+            y -= 1;
+            c.check(
+                &mut s,
+                p(500),
+                Some(p(y)),
+                SignalI16F16::from_int(-1),
+                false,
+                false,
+            );
+        }
+        for k in 0..20_000u32 {
+            let entered = k % 4096 == 0;
+            assert_eq!(
+                c.check(
+                    &mut s,
+                    p(500),
+                    Some(p(500)),
+                    SignalI16F16::ZERO,
+                    false,
+                    entered
+                ),
+                None
+            );
+        }
+    }
+}
