@@ -26,8 +26,11 @@
 //! ```
 //! In the stopping sample the drive is `u_s = −F_s/k_f` (the strongest brake a resting sled
 //! withstands) if that stops the sled within the sample — it then sticks — and otherwise the
-//! `u_s ∈ [−u_max, −F_s/k_f]` that brings the velocity to zero at the sample's end (bisection;
-//! a sled slower than [`REST_SPEED_QUANTA_PER_SAMPLE`] counts as at rest, which matters only
+//! `u_s ∈ [−u_max, −F_s/k_f]` that brings the velocity to zero at the sample's end: from the
+//! plant's solution for a moving sled, `v(Ts) = v₀ + a₀·Ts·φ₁(b·Ts/m) = 0` with
+//! `a₀ = (k_f·u_s − F_c − b·v₀)/m`, so `k_f·u_s = F_c + b·v₀ − m·v₀/(Ts·φ₁)`, checked by stepping
+//! the plant (bisection if the check fails). A sled slower than
+//! [`REST_SPEED_QUANTA_PER_SAMPLE`] counts as at rest (the rounding of that zero; it matters only
 //! without friction).
 //!
 //! With `s = k + f`, `v = −u_max + 2·f·u_max` (`v = f·u_max` for `k = 0`), the trajectory is
@@ -136,6 +139,13 @@ struct Search {
     target_quanta: f64,
     /// The strongest brake a resting sled withstands, V (≤ 0).
     hold_brake_v: f64,
+    /// A sled slower than this counts as at rest, m/s.
+    rest_speed: f64,
+    /// The plant's constants, for the stopping brake's closed form.
+    mass_kg: f64,
+    force_per_volt_n_per_v: f64,
+    viscous_n_s_per_m: f64,
+    coulomb_n: f64,
     /// The plant after `k` samples of `+u_max`, `k = 0…` (grown on demand).
     accelerated: Vec<SledPlant>,
     /// `last_out[k]`: the last sample among `0..=k` of the acceleration phase whose reading is
@@ -156,6 +166,11 @@ impl Search {
             q: params.quantum_m,
             target_quanta,
             hold_brake_v: -hold * (1.0 - 1e-12),
+            rest_speed: REST_SPEED_QUANTA_PER_SAMPLE * params.quantum_m / params.ts_s,
+            mass_kg: params.mass_kg,
+            force_per_volt_n_per_v: params.force_per_volt_n_per_v,
+            viscous_n_s_per_m: params.viscous_n_s_per_m,
+            coulomb_n: params.coulomb_n,
             accelerated: vec![plant],
             last_out: vec![None],
         };
@@ -213,7 +228,7 @@ impl Search {
         } else {
             p.advance(switch_v, self.ts_s);
         }
-        let rest_speed = REST_SPEED_QUANTA_PER_SAMPLE * self.q / self.ts_s;
+        let rest_speed = self.rest_speed;
         let mut j = k + 1;
         loop {
             if self.out_of_band(p.position_m()) {
@@ -269,7 +284,25 @@ impl Search {
             *p = c;
             return;
         }
-        // lo stops (and reverses) the sled within the sample, hi does not stop it.
+        // The drive that brings the velocity to zero at the sample's end, in closed form (the
+        // plant's solution for a moving sled: v(Ts) = v₀ + a₀·Ts·φ₁(b·Ts/m) = 0 with
+        // a₀ = (k_f·u − F_c − b·v₀)/m), checked on the plant itself.
+        let v0 = p.velocity_m_per_s();
+        let z = self.viscous_n_s_per_m * self.ts_s / self.mass_kg;
+        let phi1 = if z < 1e-4 {
+            1.0 - z / 2.0 + z * z / 6.0
+        } else {
+            -(-z).exp_m1() / z
+        };
+        let force_n =
+            self.coulomb_n + self.viscous_n_s_per_m * v0 - self.mass_kg * v0 / (self.ts_s * phi1);
+        let exact_v = (force_n / self.force_per_volt_n_per_v).clamp(strongest_v, self.hold_brake_v);
+        let c = after(exact_v);
+        if c.velocity_m_per_s().abs() <= self.rest_speed {
+            *p = c;
+            return;
+        }
+        // Otherwise bisection: lo stops (and reverses) the sled within the sample, hi does not.
         let (mut lo, mut hi) = (strongest_v, self.hold_brake_v);
         for _ in 0..80 {
             let mid = 0.5 * (lo + hi);
