@@ -57,7 +57,7 @@ pub const SWITCH_TOLERANCE: f64 = 1e-9;
 pub const MAX_SAMPLES: usize = 200_000;
 
 /// The minimum-time bound of one seek and the bang-bang control that achieves it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SeekBound {
     /// `J*`: samples from the command to the first sample after which the reading stays within
     /// ±1 quantum of the target.
@@ -71,6 +71,9 @@ pub struct SeekBound {
     /// Where the sled comes to rest, relative to the target, quanta (in the direction of the
     /// target: positive is beyond it).
     pub rest_error_quanta: f64,
+    /// The drive of every sample from the command until the sled rests, V (0 after): played
+    /// open loop on the plant from `start_m`, it reaches the band for good at sample `samples`.
+    pub drive_v: Vec<f64>,
 }
 
 /// The bound for a sled of `plant` resting at `start_m` commanded to track `target_counts`
@@ -88,6 +91,7 @@ pub fn min_time_seek(plant: &PlantParams, start_m: f64, target_counts: i64) -> O
             accelerate_samples: 0,
             switch_v: 0.0,
             rest_error_quanta: start_m / q - target_counts as f64,
+            drive_v: Vec::new(),
         });
     }
     if plant.force_per_volt_n_per_v * plant.u_max_v <= plant.static_n {
@@ -106,6 +110,7 @@ pub fn min_time_seek(plant: &PlantParams, start_m: f64, target_counts: i64) -> O
         accelerate_samples: best.accelerate_samples,
         switch_v: best.switch_v,
         rest_error_quanta: best.rest_m / q - sign * target_counts as f64,
+        drive_v: best.drive_v.iter().map(|u| sign * u).collect(),
     })
 }
 
@@ -117,17 +122,22 @@ struct Outcome {
     /// Whether the sled rests beyond the band's far edge (read `> T + 1`).
     beyond: bool,
     accelerate_samples: usize,
+    /// The switch fraction `f`.
+    f: f64,
     switch_v: f64,
     rest_m: f64,
 }
 
 /// The best feasible trajectory found.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct Best {
     samples: usize,
     accelerate_samples: usize,
+    f: f64,
     switch_v: f64,
     rest_m: f64,
+    /// Its drive (towards +x), recorded once the search has ended.
+    drive_v: Vec<f64>,
 }
 
 /// The search's fixed data and the cached acceleration phase (moving towards +x).
@@ -217,16 +227,21 @@ impl Search {
         }
     }
 
-    /// Simulates the trajectory of `s = k + f` to rest.
-    fn evaluate(&mut self, k: usize, f: f64) -> Option<Outcome> {
+    /// Simulates the trajectory of `s = k + f` to rest, appending its drive to `drive` if given.
+    fn evaluate(&mut self, k: usize, f: f64, mut drive: Option<&mut Vec<f64>>) -> Option<Outcome> {
         let (mut p, mut last_out) = self.prefix(k)?;
         let switch_v = self.switch_v(k, f);
-        if switch_v < 0.0 {
+        let applied = if switch_v < 0.0 {
             // A braking switch sample never brakes harder than the stopping brake: at f = 0 it
             // is the first braking sample of s = k, so the trajectory is continuous in s.
-            self.brake_step(&mut p, switch_v);
+            self.brake_step(&mut p, switch_v)
         } else {
             p.advance(switch_v, self.ts_s);
+            switch_v
+        };
+        if let Some(d) = drive.as_deref_mut() {
+            d.extend(std::iter::repeat_n(self.u_max_v, k));
+            d.push(applied);
         }
         let rest_speed = self.rest_speed;
         let mut j = k + 1;
@@ -247,11 +262,15 @@ impl Search {
                     samples: None,
                     beyond: self.beyond(p.position_m()),
                     accelerate_samples: k,
+                    f,
                     switch_v,
                     rest_m: p.position_m(),
                 });
             }
-            self.brake_step(&mut p, -self.u_max_v);
+            let u = self.brake_step(&mut p, -self.u_max_v);
+            if let Some(d) = drive.as_deref_mut() {
+                d.push(u);
+            }
             j += 1;
         }
         let rest_m = p.position_m();
@@ -259,6 +278,7 @@ impl Search {
             samples: (!self.out_of_band(rest_m)).then(|| last_out.map_or(0, |i| i + 1)),
             beyond: self.beyond(rest_m),
             accelerate_samples: k,
+            f,
             switch_v,
             rest_m,
         })
@@ -267,8 +287,8 @@ impl Search {
     /// One braking sample of a sled moving forward, at most as strong as `strongest_v` (< 0):
     /// `strongest_v` unless that would stop the sled within the sample; then the hold brake if
     /// that stops it (it sticks), else the bisected brake that ends the sample with the sled
-    /// (just) not reversed.
-    fn brake_step(&self, p: &mut SledPlant, strongest_v: f64) {
+    /// (just) not reversed. Returns the drive applied.
+    fn brake_step(&self, p: &mut SledPlant, strongest_v: f64) -> f64 {
         let after = |u: f64| {
             let mut c = p.clone();
             c.advance(u, self.ts_s);
@@ -277,12 +297,12 @@ impl Search {
         let c = after(strongest_v);
         if c.velocity_m_per_s() > 0.0 || strongest_v >= self.hold_brake_v {
             *p = c; // still moving forward, or stopped by a brake the resting sled withstands
-            return;
+            return strongest_v;
         }
         let c = after(self.hold_brake_v);
         if c.velocity_m_per_s() <= 0.0 {
             *p = c;
-            return;
+            return self.hold_brake_v;
         }
         // The drive that brings the velocity to zero at the sample's end, in closed form (the
         // plant's solution for a moving sled: v(Ts) = v₀ + a₀·Ts·φ₁(b·Ts/m) = 0 with
@@ -300,7 +320,7 @@ impl Search {
         let c = after(exact_v);
         if c.velocity_m_per_s().abs() <= self.rest_speed {
             *p = c;
-            return;
+            return exact_v;
         }
         // Otherwise bisection: lo stops (and reverses) the sled within the sample, hi does not.
         let (mut lo, mut hi) = (strongest_v, self.hold_brake_v);
@@ -313,6 +333,7 @@ impl Search {
             }
         }
         p.advance(hi, self.ts_s);
+        hi
     }
 
     /// The search of the module documentation.
@@ -323,13 +344,17 @@ impl Search {
             // Among equal times, the trajectory that rests nearest the target.
             let nearer = |b: &Best| (o.rest_m - target_m).abs() < (b.rest_m - target_m).abs();
             if let Some(samples) = o.samples
-                && best.is_none_or(|b| samples < b.samples || (samples == b.samples && nearer(&b)))
+                && best
+                    .as_ref()
+                    .is_none_or(|b| samples < b.samples || (samples == b.samples && nearer(b)))
             {
                 best = Some(Best {
                     samples,
                     accelerate_samples: o.accelerate_samples,
+                    f: o.f,
                     switch_v: o.switch_v,
                     rest_m: o.rest_m,
+                    drive_v: Vec::new(),
                 });
             }
         };
@@ -337,7 +362,7 @@ impl Search {
         // band: doubling, then bisection over k (f = 1 at k is s = k + 1).
         let mut hi = 1usize;
         loop {
-            let o = self.evaluate(hi - 1, 1.0)?;
+            let o = self.evaluate(hi - 1, 1.0, None)?;
             consider(&o);
             if o.beyond {
                 break;
@@ -350,7 +375,7 @@ impl Search {
         let mut lo = hi / 2; // s = lo ends short of beyond (or lo = 0)
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
-            let o = self.evaluate(mid - 1, 1.0)?;
+            let o = self.evaluate(mid - 1, 1.0, None)?;
             consider(&o);
             if o.beyond {
                 hi = mid;
@@ -361,11 +386,11 @@ impl Search {
         // s ∈ [lo, hi]: k = lo, bisect f for the largest one not beyond.
         let k = lo;
         let (mut f_lo, mut f_hi) = (0.0_f64, 1.0_f64);
-        let o = self.evaluate(k, f_lo)?;
+        let o = self.evaluate(k, f_lo, None)?;
         consider(&o);
         while f_hi - f_lo > SWITCH_TOLERANCE {
             let mid = 0.5 * (f_lo + f_hi);
-            let o = self.evaluate(k, mid)?;
+            let o = self.evaluate(k, mid, None)?;
             consider(&o);
             if o.beyond {
                 f_hi = mid;
@@ -373,7 +398,11 @@ impl Search {
                 f_lo = mid;
             }
         }
-        best
+        let mut best = best?;
+        let mut drive = Vec::new();
+        self.evaluate(best.accelerate_samples, best.f, Some(&mut drive))?;
+        best.drive_v = drive;
+        Some(best)
     }
 }
 
@@ -409,7 +438,9 @@ mod tests {
                 let mut grid_best = usize::MAX;
                 for k in 0..=bound.accelerate_samples + 3 {
                     for i in 0..=400 {
-                        let o = search.evaluate(k, f64::from(i) / 400.0).expect("simulated");
+                        let o = search
+                            .evaluate(k, f64::from(i) / 400.0, None)
+                            .expect("simulated");
                         if let Some(j) = o.samples {
                             grid_best = grid_best.min(j);
                         }
