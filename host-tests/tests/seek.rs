@@ -8,7 +8,7 @@
 //! - a seek that never settles, or whose dwell is shorter than 10 ms, is unsettled and counts with
 //!   its whole length;
 //! - on the nominal sled, what today's controllers measure (the seek mode's assertions are to be
-//!   tightened when the library's seek mode lands);
+//!   tightened when `control::seek::seek_design` switches the library's seek mode on);
 //! - the command writes its files and refuses bad arguments, naming them.
 
 use std::cell::Cell;
@@ -183,7 +183,7 @@ fn unsettled_seeks_count_with_their_whole_length() {
 /// | controller | access median (ms) | access / bound median | pulses | unsettled |
 /// |---|---|---|---|---|
 /// | servo following the 30 ms S-curve | 27.30 | 9.67 | 0 | 0 |
-/// | servo fed the step (no seek mode yet) | 12.74 | 3.63 | 0 | 0 |
+/// | servo fed the step (seek mode not switched on) | 12.74 | 3.63 | 0 | 0 |
 /// | baseline PID fed the step | 51.87 | 17.21 | 856 | 0 |
 ///
 /// Asserted: the reference-following servo cannot arrive before its reference (median access

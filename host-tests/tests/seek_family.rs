@@ -5,9 +5,9 @@
 //! families' statistics.
 //!
 //! Issue 14's targets and what today's controllers measure (`BENCHMARKS.md`, controller, seeks).
-//! The library has no seek mode yet: "seek mode" is the scheduled servo fed the step (the
-//! command itself), which the seek mode will replace; its assertions below are today's figures,
-//! to be tightened to the targets when it lands.
+//! The seek mode is not switched on yet (`control::seek::seek_design`): "seek mode" is the
+//! scheduled servo fed the step (the command itself); its assertions below are today's figures,
+//! to be tightened to the targets when it is.
 //!
 //! | measure | target | seek mode today, seed 1 / 7 | reference-following, seed 1 / 7 |
 //! |---|---|---|---|

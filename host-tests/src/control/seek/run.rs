@@ -61,9 +61,10 @@ impl SeekController {
 
 /// The design the seek mode runs, from the design of a prior (`control::design_from_prior`).
 ///
-/// The library has no seek mode yet (issue 14): the design is returned unchanged and
-/// [`SeekController::Seek`] runs the scheduled law fed the step. When `ScheduledDesign` gains
-/// its seek mode, this is where it is switched on.
+/// Not switched on yet: the design is returned unchanged, so [`SeekController::Seek`] runs the
+/// scheduled law fed the step. The library's time-optimal seeks are switched on here
+/// (`design.with_time_optimal_seeks()`), and every seek-mode run — `sledid seek`, the family's
+/// seek pass, the tests — follows.
 pub fn seek_design(design: ScheduledDesign) -> ScheduledDesign {
     design
 }
