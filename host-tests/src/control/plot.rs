@@ -551,19 +551,19 @@ pub fn plot_seek_family(report: &SeekFamilyReport, path: &Path) -> Result<(), St
             .label(name)
             .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
         }
-        for (level, label) in [
-            (1.0, "bound"),
-            (1.5, "1.5 (median target)"),
-            (2.5, "2.5 (p95 target)"),
+        for (level, label, color) in [
+            (1.0, "bound", BLACK),
+            (1.5, "1.5 (median target)", RGBColor(213, 94, 0)),
+            (2.5, "2.5 (p95 target)", RGBColor(204, 121, 167)),
         ] {
             c.draw_series(DashedLineSeries::new(
                 [(d_lo, level), (d_hi, level)],
                 6,
                 4,
-                BLACK.stroke_width(1),
+                color.stroke_width(2),
             ))?
             .label(label)
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK));
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2)));
         }
         c.configure_series_labels()
             .background_style(WHITE.mix(0.85))
