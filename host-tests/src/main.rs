@@ -41,6 +41,10 @@ enum Command {
     /// The servo on N plants of the seeded family (baseline, identified, frozen at the prior,
     /// without friction identification), in parallel: DIR/family.{json,md,png}.
     ControlFamily(cmd::control_family::Args),
+    /// Seek commands on the twin: each seek's access time (until |y − target| ≤ 1 track for
+    /// ≥ 10 ms) against the plant's minimum-time bound, for the controller under test and today's
+    /// reference-following servo: DIR/summary.json, seek_vs_distance.png, seek_steps.png.
+    Seek(cmd::seek::Args),
     /// Can this machine pace a replay at Ts? Spin on the clock doing nothing else and count the
     /// gaps (the thread not running): each gap of at least Ts is an overrun of any paced replay,
     /// whatever its per-sample cost. Prints a JSON report.
@@ -59,6 +63,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => cmd::demo::run(&a),
         Command::Control(a) => cmd::control::run(&a),
         Command::ControlFamily(a) => cmd::control_family::run(&a),
+        Command::Seek(a) => cmd::seek::run(&a),
         Command::Replay(a) => cmd::replay::run(&a),
         Command::Study(a) => cmd::study::run(&a),
         Command::Soak(a) => cmd::soak::run(&a),

@@ -5,7 +5,9 @@
 //! ([`reference`](mod@reference): low-pass filtered steps with dwells) and any
 //! [`SledController`] (the paper's baseline PID is [`PidController`]). Everything random (the
 //! seek targets, the sensor noise) comes from a `u64` seed through ChaCha8, so a seed and a
-//! [`TwinParams`] reproduce a recording bit for bit.
+//! [`TwinParams`] reproduce a recording bit for bit. [`bound`] computes, on the same plant, the
+//! minimum-time bound of a seek (bang-bang under the same rail), which any controller's access
+//! time is judged against.
 //!
 //! # One sample `k` (`t = k·Ts`)
 //! ```text
@@ -26,13 +28,17 @@
 
 pub mod analysis;
 pub mod baseline;
+pub mod bound;
 pub mod params;
 pub mod plant;
 pub mod reference;
 
 pub use analysis::{LimitCycleStats, SeekStats};
 pub use baseline::{PidController, SledController};
-pub use params::{PidParams, PlantParams, ReferenceParams, TwinParams};
+pub use bound::{SeekBound, min_time_seek};
+pub use params::{
+    PidParams, PlantParams, ReferenceParams, ReferenceProfile, SeekDistribution, TwinParams,
+};
 pub use plant::SledPlant;
 pub use reference::{Seek, SeekReference};
 

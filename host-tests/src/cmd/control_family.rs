@@ -1,10 +1,14 @@
 //! `sledid control-family`: the servo on N plants of the seeded family × the seeks, against the
 //! baseline, the servo frozen at its prior and the servo without friction identification — in
-//! parallel, with a progress bar; writes a table, JSON and a plot.
+//! parallel, with a progress bar; writes a table, JSON and a plot. With `--passes seek|both`, the
+//! seek evaluation too (issue 14): every plant's seek commands under the seek mode and today's
+//! reference-following servo, access time over the plant's minimum-time bound.
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sledid_host::control::family_eval::{self, FamilyOptions};
 use sledid_host::control::plot;
+use sledid_host::control::seek::SeekOptions;
+use sledid_host::control::seek::family as seek_family;
 use sledid_host::twin::TwinParams;
 use std::path::PathBuf;
 
@@ -24,9 +28,29 @@ pub struct Args {
     /// nominal sled.
     #[arg(long)]
     pub prior: Option<PathBuf>,
-    /// Output directory: family.json, family.md, family.png.
+    /// Which evaluations: the settling comparison of four controllers (issue 13), the seek
+    /// evaluation (issue 14: access time over the plant's minimum-time bound, seek mode and
+    /// reference-following servo), or both.
+    #[arg(long, value_enum, default_value = "settling")]
+    pub passes: Passes,
+    /// Seek distances MIN:MAX, tracks, of the seek evaluation (log-uniform).
+    #[arg(long, default_value = "20:2000")]
+    pub distances: String,
+    /// Output directory: family.json, family.md, family.png (settling); seek.json, seek.md,
+    /// seek.png (seek).
     #[arg(long, default_value = "out/control-family")]
     pub out: PathBuf,
+}
+
+/// `--passes`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Passes {
+    /// The settling comparison (baseline, servo, frozen, linear-only).
+    Settling,
+    /// The seek evaluation only.
+    Seek,
+    /// Both.
+    Both,
 }
 
 /// Runs the command.
@@ -49,33 +73,66 @@ pub fn run(a: &Args) -> Result<(), String> {
         prior,
         ..FamilyOptions::default()
     };
-    let bar = ProgressBar::new(a.plants);
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} plants, eta {eta}")
-    {
-        bar.set_style(style);
-    }
-    let report = family_eval::evaluate(&options, Some(&bar))?;
-    bar.finish_and_clear();
+    let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;
+    let new_bar = || {
+        let bar = ProgressBar::new(a.plants);
+        if let Ok(style) = ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} plants, eta {eta}",
+        ) {
+            bar.set_style(style);
+        }
+        bar
+    };
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let write = |name: &str, text: String| {
         let path = a.out.join(name);
         std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))
     };
-    let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-    write("family.json", json + "\n")?;
-    let stats = family_eval::stats_table(&report.stats);
-    write(
-        "family.md",
-        format!(
-            "# Servo on {} plants of family seed {}, {} seeks each\n\n{stats}\n{}",
-            a.plants,
-            a.seed,
-            a.seeks,
-            family_eval::plant_table(&report)
-        ),
-    )?;
-    plot::plot_family(&report, &a.out.join("family.png"))?;
-    println!("{stats}\n→ {}", a.out.display());
+    if a.passes != Passes::Seek {
+        let bar = new_bar();
+        let report = family_eval::evaluate(&options, Some(&bar))?;
+        bar.finish_and_clear();
+        let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        write("family.json", json + "\n")?;
+        let stats = family_eval::stats_table(&report.stats);
+        write(
+            "family.md",
+            format!(
+                "# Servo on {} plants of family seed {}, {} seeks each\n\n{stats}\n{}",
+                a.plants,
+                a.seed,
+                a.seeks,
+                family_eval::plant_table(&report)
+            ),
+        )?;
+        plot::plot_family(&report, &a.out.join("family.png"))?;
+        println!("{stats}");
+    }
+    if a.passes != Passes::Settling {
+        let schedule = SeekOptions {
+            min_tracks,
+            max_tracks,
+            ..SeekOptions::default()
+        };
+        let bar = new_bar();
+        let report = seek_family::evaluate(&options, &schedule, Some(&bar))?;
+        bar.finish_and_clear();
+        let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        write("seek.json", json + "\n")?;
+        let stats = seek_family::stats_table(&report);
+        write(
+            "seek.md",
+            format!(
+                "# Seeks on {} plants of family seed {}, {} seeks of {min_tracks}–{max_tracks} tracks each\n\n{stats}\n{}",
+                a.plants,
+                a.seed,
+                a.seeks,
+                seek_family::plant_table(&report)
+            ),
+        )?;
+        plot::plot_seek_family(&report, &a.out.join("seek.png"))?;
+        println!("{stats}");
+    }
+    println!("→ {}", a.out.display());
     Ok(())
 }

@@ -5,6 +5,7 @@ pub mod control_family;
 pub mod demo;
 pub mod pacing;
 pub mod replay;
+pub mod seek;
 pub mod soak;
 pub mod study;
 pub mod twin;

@@ -12,7 +12,8 @@
 //! | [`perturb`] | a plant scaled from a nominal one (`--perturb`, the seven variants) |
 //! | [`family`] | the seeded plant family |
 //! | [`family_eval`] | baseline, identified and frozen servo over the family, in parallel |
-//! | [`plot`] | step responses, the family's settling ratios and pulses |
+//! | [`plot`] | step responses, the family's settling ratios and pulses, seek time versus distance |
+//! | [`seek`] | seeks as commands: access time per seek against the plant's minimum-time bound |
 //!
 //! The scheduled controller is designed from a *prior* plant only ([`design_from_prior`]:
 //! `sledid control --prior`, the built-in nominal sled without one), never from the plant it runs
@@ -41,6 +42,7 @@ pub mod family_eval;
 pub mod perturb;
 pub mod plot;
 pub mod run;
+pub mod seek;
 pub mod summary;
 
 pub use design::{

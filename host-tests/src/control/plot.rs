@@ -1,6 +1,7 @@
 //! The figures of the control commands: `sledid control`'s step responses (the start of a few
 //! seeks, error and reference relative to the target, the drive, the scheduled controller's
-//! region shaded behind) and `sledid control-family`'s per-plant settling ratios and events.
+//! region shaded behind), `sledid control-family`'s per-plant settling ratios and events, and
+//! `sledid seek`'s seek time versus distance and step responses.
 //!
 //! Text uses plotters' `ab_glyph` backend with the DejaVu Sans font embedded by `dejavu` (no
 //! system fonts), as the study's figures do.
@@ -11,6 +12,8 @@ use std::sync::OnceLock;
 
 use super::family_eval::{FamilyReport, PlantResult, RunBrief};
 use super::run::ControlRun;
+use super::seek::family::{SeekBrief, SeekFamilyReport, SeekPlantResult};
+use super::seek::{SeekRow, SeekRun};
 use sledid::control::Region;
 
 const FONT: &str = "sans-serif";
@@ -251,6 +254,322 @@ pub fn plot_family(report: &FamilyReport, path: &Path) -> Result<(), String> {
             .border_style(BLACK)
             .label_font((FONT, 12))
             .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// One controller's seeks for [`plot_seek_distance`]: its name and rows.
+pub type SeekSeries<'a> = (&'a str, &'a [SeekRow]);
+
+/// Seek time versus distance (`sledid seek`), log-log: each seek's access time per controller
+/// (filled; an unsettled seek hollow, at its whole length, a lower bound) and the plant's
+/// minimum-time bound from rest (`bound_curve`: distance in tracks, bound in ms).
+///
+/// # Errors
+/// The font or the drawing backend failed.
+pub fn plot_seek_distance(
+    series: &[SeekSeries<'_>],
+    bound_curve: &[(f64, f64)],
+    title: &str,
+    path: &Path,
+) -> Result<(), String> {
+    if !font_ready() {
+        return Err("the embedded DejaVu Sans font could not be loaded".to_owned());
+    }
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(path, (1100, 760)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let distances = series
+            .iter()
+            .flat_map(|(_, rows)| rows.iter().map(|r| r.distance_tracks.unsigned_abs() as f64))
+            .chain(bound_curve.iter().map(|b| b.0));
+        let (d_lo, d_hi) =
+            distances.fold((f64::MAX, 1.0_f64), |(lo, hi), d| (lo.min(d), hi.max(d)));
+        let times = series
+            .iter()
+            .flat_map(|(_, rows)| rows.iter().map(|r| r.access_ms))
+            .chain(bound_curve.iter().map(|b| b.1))
+            .filter(|t| *t > 0.0);
+        let (t_lo, t_hi) = times.fold((f64::MAX, 0.1_f64), |(lo, hi), t| (lo.min(t), hi.max(t)));
+        let d_lo = (d_lo.min(d_hi) * 0.8).max(0.5);
+        let t_lo = (t_lo.min(t_hi) * 0.7).max(0.01);
+        let mut c = ChartBuilder::on(&root)
+            .caption(title, (FONT, 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(
+                (d_lo..d_hi * 1.25).log_scale(),
+                (t_lo..t_hi * 1.4).log_scale(),
+            )?;
+        c.configure_mesh()
+            .x_desc("seek distance (tracks)")
+            .y_desc("access time (ms): until |y − target| ≤ 1 track for ≥ 10 ms")
+            .label_style((FONT, 12))
+            .draw()?;
+        c.draw_series(LineSeries::new(
+            bound_curve.iter().copied(),
+            BLACK.stroke_width(2),
+        ))?
+        .label("minimum-time bound (bang-bang, this plant, from rest)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+        let colors = [
+            RGBColor(0, 114, 178),
+            RGBColor(230, 159, 0),
+            RGBColor(0, 158, 115),
+            RGBColor(204, 121, 167),
+        ];
+        for (k, (name, rows)) in series.iter().enumerate() {
+            let color = colors.get(k % colors.len()).copied().unwrap_or(BLACK);
+            let point = |r: &SeekRow| {
+                (
+                    r.distance_tracks.unsigned_abs() as f64,
+                    r.access_ms.max(t_lo),
+                )
+            };
+            c.draw_series(
+                rows.iter()
+                    .filter(|r| r.settled)
+                    .map(|r| Circle::new(point(r), 3, color.filled())),
+            )?
+            .label(*name)
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+            c.draw_series(
+                rows.iter()
+                    .filter(|r| !r.settled)
+                    .map(|r| Circle::new(point(r), 5, color.stroke_width(2))),
+            )?;
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 13))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// A few seeks as step responses (`sledid seek`): for each of `seeks` (indices into the runs'
+/// schedule, the same targets in every run) the reading relative to the target, in tracks, of
+/// every run — left the whole seek, right within ±[`SEEK_ZOOM_QUANTA`] — with the minimum-time
+/// bound of the first run dashed and each run's access time dotted.
+///
+/// # Errors
+/// The font or the drawing backend failed.
+pub fn plot_seek_steps(runs: &[&SeekRun], seeks: &[usize], path: &Path) -> Result<(), String> {
+    if !font_ready() {
+        return Err("the embedded DejaVu Sans font could not be loaded".to_owned());
+    }
+    let colors = [
+        RGBColor(0, 114, 178),
+        RGBColor(230, 159, 0),
+        RGBColor(0, 158, 115),
+    ];
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
+        let rows = seeks.len().max(1) as u32;
+        let root = BitMapBackend::new(path, (1300, 340 * rows)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let panels = root.split_evenly((rows as usize, 2));
+        for (n, &k) in seeks.iter().enumerate() {
+            let row_of = |r: &SeekRun| r.rows.iter().find(|row| row.index == k).copied();
+            let Some(first) = runs.first().and_then(|r| row_of(r)) else {
+                continue;
+            };
+            let end_ms = runs
+                .iter()
+                .filter_map(|r| row_of(r).map(|row| row.access_ms))
+                .chain(first.bound_ms)
+                .fold(0.0_f64, f64::max)
+                * 1.3
+                + 12.0;
+            let d = first.distance_tracks as f64;
+            for (side, zoom) in [(0, false), (1, true)] {
+                let Some(area) = panels.get(2 * n + side) else {
+                    continue;
+                };
+                let (lo, hi) = if zoom {
+                    (-SEEK_ZOOM_QUANTA, SEEK_ZOOM_QUANTA)
+                } else {
+                    let m = d.abs() * 1.15 + 2.0;
+                    (-m, m)
+                };
+                let caption = if zoom {
+                    format!("seek {k}: within ±{SEEK_ZOOM_QUANTA} tracks")
+                } else {
+                    format!(
+                        "seek {k}: {:+} tracks, bound {:.2} ms",
+                        first.distance_tracks,
+                        first.bound_ms.unwrap_or(0.0)
+                    )
+                };
+                let mut c = ChartBuilder::on(area)
+                    .caption(caption, (FONT, 16))
+                    .margin(8)
+                    .x_label_area_size(34)
+                    .y_label_area_size(56)
+                    .build_cartesian_2d(0.0..end_ms, lo..hi)?;
+                c.configure_mesh()
+                    .x_desc("time from the command (ms)")
+                    .y_desc("y − target (tracks)")
+                    .label_style((FONT, 12))
+                    .draw()?;
+                if let Some(b) = first.bound_ms {
+                    c.draw_series(DashedLineSeries::new(
+                        [(b, lo), (b, hi)],
+                        6,
+                        4,
+                        BLACK.stroke_width(1),
+                    ))?
+                    .label("bound")
+                    .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK));
+                }
+                for (i, r) in runs.iter().enumerate() {
+                    let color = colors.get(i % colors.len()).copied().unwrap_or(BLACK);
+                    let (Some(seek), Some(row)) = (r.run.twin.seeks().get(k), row_of(r)) else {
+                        continue;
+                    };
+                    let ts_ms = r.run.twin.params().plant.ts_s * 1e3;
+                    let end = seek.end_index.unwrap_or(r.run.twin.samples().len());
+                    let window = r
+                        .run
+                        .twin
+                        .samples()
+                        .get(seek.start_index..end)
+                        .unwrap_or(&[]);
+                    let target = seek.target_counts as f64;
+                    c.draw_series(LineSeries::new(
+                        window
+                            .iter()
+                            .enumerate()
+                            .map(|(j, s)| {
+                                (j as f64 * ts_ms, (s.y_counts as f64 - target).clamp(lo, hi))
+                            })
+                            .take_while(|(t, _)| *t <= end_ms),
+                        color.stroke_width(2),
+                    ))?
+                    .label(format!(
+                        "{}: {:.2} ms{}",
+                        r.controller.label(),
+                        row.access_ms,
+                        if row.settled { "" } else { " (unsettled)" }
+                    ))
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2))
+                    });
+                    c.draw_series(DashedLineSeries::new(
+                        [(row.access_ms, lo), (row.access_ms, hi)],
+                        2,
+                        3,
+                        color.stroke_width(1),
+                    ))?;
+                }
+                c.configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font((FONT, 12))
+                    .position(SeriesLabelPosition::LowerRight)
+                    .draw()?;
+            }
+        }
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The zoomed panels of [`plot_seek_steps`] show ±this many tracks.
+pub const SEEK_ZOOM_QUANTA: f64 = 6.0;
+
+/// The family's seeks (`sledid control-family --passes seek`): every seek of every plant, access
+/// time over that plant's bound against the distance (log-log), for the seek mode and for
+/// today's reference-following servo; the bound itself (1) and issue 14's median / p95 targets
+/// (1.5, 2.5) dashed.
+///
+/// # Errors
+/// The font or the drawing backend failed.
+pub fn plot_seek_family(report: &SeekFamilyReport, path: &Path) -> Result<(), String> {
+    if !font_ready() {
+        return Err("the embedded DejaVu Sans font could not be loaded".to_owned());
+    }
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(path, (1100, 760)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let s = &report.schedule;
+        let (d_lo, d_hi) = (
+            f64::from(s.min_tracks) * 0.8,
+            f64::from(s.max_tracks) * 1.25,
+        );
+        let (r_lo, r_hi) = (0.5, 200.0);
+        let mut c = ChartBuilder::on(&root)
+            .caption(
+                format!(
+                    "{} plants of family seed {}, {} seeks each: access time over the plant's bound",
+                    report.plants.len(),
+                    report.family.seed,
+                    s.seeks
+                ),
+                (FONT, 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d((d_lo..d_hi).log_scale(), (r_lo..r_hi).log_scale())?;
+        c.configure_mesh()
+            .x_desc("seek distance (tracks)")
+            .y_desc("access time / minimum-time bound (clipped at 200)")
+            .label_style((FONT, 12))
+            .draw()?;
+        type Pick = fn(&SeekPlantResult) -> &SeekBrief;
+        let picks: [(&str, RGBColor, Pick); 2] = [
+            (
+                "reference-following (30 ms S-curve)",
+                RGBColor(230, 159, 0),
+                |p| &p.reference,
+            ),
+            (
+                "seek mode (servo fed the step)",
+                RGBColor(0, 114, 178),
+                |p| &p.seek,
+            ),
+        ];
+        for (name, color, pick) in picks {
+            c.draw_series(report.plants.iter().flat_map(|p| {
+                pick(p).ratios.iter().map(move |&(d, r)| {
+                    Circle::new(
+                        (d.unsigned_abs() as f64, r.clamp(r_lo, r_hi)),
+                        1,
+                        color.mix(0.5).filled(),
+                    )
+                })
+            }))?
+            .label(name)
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+        }
+        for (level, label, color) in [
+            (1.0, "bound", BLACK),
+            (1.5, "1.5 (median target)", RGBColor(213, 94, 0)),
+            (2.5, "2.5 (p95 target)", RGBColor(204, 121, 167)),
+        ] {
+            c.draw_series(DashedLineSeries::new(
+                [(d_lo, level), (d_hi, level)],
+                6,
+                4,
+                color.stroke_width(2),
+            ))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2)));
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 13))
+            .position(SeriesLabelPosition::UpperRight)
             .draw()?;
         root.present()?;
         Ok(())

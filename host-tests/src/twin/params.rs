@@ -138,6 +138,54 @@ pub struct ReferenceParams {
     pub targets_tracks: Option<Vec<i64>>,
     /// Time held at each target after the filtered reference has arrived, s.
     pub dwell_s: f64,
+    /// How random seek lengths are drawn from `seek_min_tracks..=seek_max_tracks` (default
+    /// uniform; written to JSON only when not the default).
+    #[serde(skip_serializing_if = "SeekDistribution::is_uniform")]
+    pub seek_distribution: SeekDistribution,
+    /// The shape of each seek's reference (default the S-curve of `ref_rise_s`; written to JSON
+    /// only when not the default).
+    #[serde(skip_serializing_if = "ReferenceProfile::is_s_curve")]
+    pub profile: ReferenceProfile,
+}
+
+/// How the random seek lengths are drawn between `seek_min_tracks` and `seek_max_tracks`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SeekDistribution {
+    /// Every whole length equally likely.
+    #[default]
+    Uniform,
+    /// Log-uniform: `length = round(exp(ln min + w·(ln max − ln min)))`, `w` uniform in [0, 1)
+    /// (as many seeks of 20–200 tracks as of 200–2,000): a drive's seek-time-versus-distance
+    /// curve is read on a log scale.
+    LogUniform,
+}
+
+impl SeekDistribution {
+    /// Whether this is the default, [`Self::Uniform`].
+    pub fn is_uniform(&self) -> bool {
+        *self == Self::Uniform
+    }
+}
+
+/// The shape of the reference from the previous target to the next.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceProfile {
+    /// The paper's low-pass filtered step: the cycloidal S-curve rising over `ref_rise_s`.
+    #[default]
+    SCurve,
+    /// The step itself, `r = target` from the seek's first sample on (`ref_rise_s` ignored): a
+    /// seek command ("go to track N") for a controller that plans its own trajectory. The seek
+    /// has arrived at its first sample, and dwells `dwell_s` from there.
+    Step,
+}
+
+impl ReferenceProfile {
+    /// Whether this is the default, [`Self::SCurve`].
+    pub fn is_s_curve(&self) -> bool {
+        *self == Self::SCurve
+    }
 }
 
 impl Default for ReferenceParams {
@@ -150,6 +198,8 @@ impl Default for ReferenceParams {
             travel_tracks: 10_000,
             targets_tracks: None,
             dwell_s: 0.3,
+            seek_distribution: SeekDistribution::Uniform,
+            profile: ReferenceProfile::SCurve,
         }
     }
 }

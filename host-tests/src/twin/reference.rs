@@ -14,6 +14,10 @@
 //! feeding the integrator a fraction of a quantum long after the seek and decide, by chance,
 //! whether the sled freezes or hunts.
 //!
+//! With [`ReferenceProfile::Step`] there is no filter: `r = target` from the seek's first sample
+//! on (a seek command, for a controller that plans its own trajectory), i.e. the S-curve of a
+//! one-sample rise.
+//!
 //! # Seek timing
 //! A seek starts at the sample where the target changes (`t₀`, the first sample with `p > 0`).
 //! The reference has *arrived* at the first sample with `p ≥ 1`; the seek then dwells for
@@ -23,7 +27,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::params::ReferenceParams;
+use super::params::{ReferenceParams, ReferenceProfile, SeekDistribution};
 
 /// One seek of the schedule, with the sample indices at which its phases began.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -40,7 +44,8 @@ pub struct Seek {
 
 /// Draws the seek targets: the given ones, or `seek_count` random steps from `rng`.
 ///
-/// Each random step has a length drawn uniformly from `seek_min_tracks..=seek_max_tracks` and a
+/// Each random step has a length drawn from `seek_min_tracks..=seek_max_tracks` by
+/// `seek_distribution` (uniformly over the whole lengths by default, or log-uniformly) and a
 /// random direction; a step that would leave ±`travel_tracks` is taken the other way.
 pub fn draw_targets(params: &ReferenceParams, rng: &mut ChaCha8Rng) -> Vec<i64> {
     if let Some(targets) = &params.targets_tracks {
@@ -48,9 +53,13 @@ pub fn draw_targets(params: &ReferenceParams, rng: &mut ChaCha8Rng) -> Vec<i64> 
     }
     let travel = i64::from(params.travel_tracks);
     let mut position: i64 = 0;
+    let (min, max) = (params.seek_min_tracks, params.seek_max_tracks);
     (0..params.seek_count)
         .map(|_| {
-            let length = i64::from(rng.gen_range(params.seek_min_tracks..=params.seek_max_tracks));
+            let length = i64::from(match params.seek_distribution {
+                SeekDistribution::Uniform => rng.gen_range(min..=max),
+                SeekDistribution::LogUniform => log_uniform_length(rng, min, max),
+            });
             let step = if rng.gen_bool(0.5) { length } else { -length };
             position = if (position + step).abs() <= travel {
                 position + step
@@ -60,6 +69,14 @@ pub fn draw_targets(params: &ReferenceParams, rng: &mut ChaCha8Rng) -> Vec<i64> 
             position
         })
         .collect()
+}
+
+/// A whole length log-uniform in `min..=max` (`1 ≤ min ≤ max`):
+/// `round(exp(ln min + w·(ln max − ln min)))`, `w` uniform in [0, 1), kept within the range.
+fn log_uniform_length(rng: &mut ChaCha8Rng, min: u32, max: u32) -> u32 {
+    let (lo, hi) = (f64::from(min).ln(), f64::from(max).ln());
+    let w: f64 = rng.r#gen();
+    ((lo + w * (hi - lo)).exp().round() as u32).clamp(min, max)
 }
 
 /// Generates the filtered reference sample by sample and keeps the seek bookkeeping.
@@ -82,7 +99,11 @@ impl SeekReference {
     pub fn new(params: &ReferenceParams, ts_s: f64, targets_counts: Vec<i64>) -> Self {
         Self {
             targets_counts,
-            rise_samples: (params.ref_rise_s / ts_s).round().max(1.0) as usize,
+            rise_samples: match params.profile {
+                ReferenceProfile::SCurve => (params.ref_rise_s / ts_s).round().max(1.0) as usize,
+                // A one-sample rise: the target from the seek's first sample on.
+                ReferenceProfile::Step => 1,
+            },
             dwell_samples: (params.dwell_s / ts_s).round().max(1.0) as usize,
             origin_counts: 0,
             seeks: Vec::new(),

@@ -1,0 +1,191 @@
+//! `sledid seek`: seek commands on the twin — each seek's access time against the minimum-time
+//! bound of the true plant, for the controller under test and for today's reference-following
+//! servo on the same seeks; writes `summary.json`, the seek-time-versus-distance plot and a few
+//! step responses.
+
+use serde::Serialize;
+use sledid_host::control::seek::{
+    SeekController, SeekOptions, SeekRow, SeekRun, SeekSummary, bound_curve, run_seeks, seek_design,
+};
+use sledid_host::control::{design_from_prior, plot};
+use sledid_host::twin::{PlantParams, TwinParams};
+use std::path::PathBuf;
+
+/// `--controller`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum SeekControllerArg {
+    /// The servo's seek mode fed the seek command (a step; without a seek mode in the design, the
+    /// scheduled law fed the step).
+    Seek,
+    /// The paper's baseline PID fed the step.
+    Baseline,
+    /// The servo following the paper's 30 ms S-curve (today's `sledid control`).
+    Reference,
+}
+
+/// `sledid seek`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The plant the twin simulates (JSON; missing keys take the defaults). Default: the built-in
+    /// nominal sled.
+    #[arg(long)]
+    pub plant: Option<PathBuf>,
+    /// The plant the servo is designed from (JSON, its `plant` section). Default: the built-in
+    /// nominal sled — never the `--plant` file.
+    #[arg(long)]
+    pub prior: Option<PathBuf>,
+    /// Seeks.
+    #[arg(long, default_value_t = 100)]
+    pub seeks: u32,
+    /// Seek distances MIN:MAX, tracks (log-uniform, random sign, within the travel).
+    #[arg(long, default_value = "20:2000")]
+    pub distances: String,
+    /// Seed of the seeks and the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The controller under test; today's reference-following servo always runs beside it.
+    #[arg(long, value_enum, default_value = "seek")]
+    pub controller: SeekControllerArg,
+    /// Shortest dwell after each command (after the S-curve's arrival when following it), ms;
+    /// lengthened on a slow sled to 3× the bound of the longest seek + 10 ms.
+    #[arg(long, default_value_t = 300.0)]
+    pub dwell_ms: f64,
+    /// Output directory: summary.json, seek_vs_distance.png, seek_steps.png.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// One controller's part of `summary.json`.
+#[derive(Serialize)]
+struct Part<'a> {
+    summary: &'a SeekSummary,
+    seeks: &'a [SeekRow],
+}
+
+/// `summary.json`.
+#[derive(Serialize)]
+struct Report<'a> {
+    plant: &'a PlantParams,
+    prior: &'a PlantParams,
+    schedule: &'a SeekOptions,
+    /// The plant's bound from rest: (distance in tracks, ms).
+    bound_curve: &'a [(f64, f64)],
+    under_test: Part<'a>,
+    /// Today's reference-following servo on the same seeks (absent when it is under test).
+    reference_following: Option<Part<'a>>,
+}
+
+/// The seeks of `run` closest (in log distance) to 20, 200 and 2,000 tracks: short, medium, long.
+fn picks(run: &SeekRun) -> Vec<usize> {
+    let mut out = Vec::new();
+    for want in [20.0_f64, 200.0, 2000.0] {
+        let best = run.rows.iter().min_by(|a, b| {
+            let e =
+                |r: &SeekRow| ((r.distance_tracks.unsigned_abs() as f64).ln() - want.ln()).abs();
+            e(a).total_cmp(&e(b))
+        });
+        if let Some(r) = best
+            && !out.contains(&r.index)
+        {
+            out.push(r.index);
+        }
+    }
+    out
+}
+
+/// Runs the command.
+///
+/// # Errors
+/// Argument, parameter, run, file or plot errors, naming the argument or file.
+pub fn run(a: &Args) -> Result<(), String> {
+    let read =
+        |p: &PathBuf| TwinParams::from_json_file(p).map_err(|e| format!("{}: {e}", p.display()));
+    let params = a.plant.as_ref().map(read).transpose()?.unwrap_or_default();
+    let prior = a.prior.as_ref().map(read).transpose()?.unwrap_or_default();
+    let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;
+    if a.seeks == 0 {
+        return Err("--seeks 0: need at least one seek".to_owned());
+    }
+    if !(a.dwell_ms.is_finite() && a.dwell_ms > 0.0) {
+        return Err(format!("--dwell-ms {}: must be finite and > 0", a.dwell_ms));
+    }
+    let schedule = SeekOptions {
+        seeks: a.seeks,
+        min_tracks,
+        max_tracks,
+        seed: a.seed,
+        dwell_s: a.dwell_ms * 1e-3,
+    };
+    let design = design_from_prior(&params, &prior.plant)?;
+    let under_test = match a.controller {
+        SeekControllerArg::Seek => SeekController::Seek(seek_design(design)),
+        SeekControllerArg::Baseline => SeekController::Baseline,
+        SeekControllerArg::Reference => SeekController::Reference(design),
+    };
+    let tested = run_seeks(&params, &under_test, &schedule)?;
+    let reference = match under_test {
+        SeekController::Reference(_) => None,
+        _ => Some(run_seeks(
+            &params,
+            &SeekController::Reference(design),
+            &schedule,
+        )?),
+    };
+    let curve = bound_curve(&params.plant, min_tracks, max_tracks);
+    let report = Report {
+        plant: &params.plant,
+        prior: &prior.plant,
+        schedule: &schedule,
+        bound_curve: &curve,
+        under_test: Part {
+            summary: &tested.summary,
+            seeks: &tested.rows,
+        },
+        reference_following: reference.as_ref().map(|r| Part {
+            summary: &r.summary,
+            seeks: &r.rows,
+        }),
+    };
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+    let path = a.out.join("summary.json");
+    std::fs::write(&path, json + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut series = vec![(tested.controller.label(), tested.rows.as_slice())];
+    let mut runs = vec![&tested];
+    if let Some(r) = &reference {
+        series.push((r.controller.label(), r.rows.as_slice()));
+        runs.push(r);
+    }
+    plot::plot_seek_distance(
+        &series,
+        &curve,
+        &format!(
+            "{} seeks of {min_tracks}–{max_tracks} tracks (log-uniform), seed {}",
+            a.seeks, a.seed
+        ),
+        &a.out.join("seek_vs_distance.png"),
+    )?;
+    plot::plot_seek_steps(&runs, &picks(&tested), &a.out.join("seek_steps.png"))?;
+    let line = |s: &SeekSummary| {
+        format!(
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}",
+            s.controller,
+            s.access_ms.median,
+            s.access_ms.p95,
+            s.access_ms.max,
+            s.ratio.median,
+            s.ratio.p95,
+            s.ratio.max,
+            s.ratio_long_median,
+            s.overshoot_quanta.max,
+            s.limit_cycle_pulses,
+            s.unsettled
+        )
+    };
+    println!("{}", line(&tested.summary));
+    if let Some(r) = &reference {
+        println!("{}", line(&r.summary));
+    }
+    println!("→ {}", a.out.display());
+    Ok(())
+}

@@ -1,0 +1,329 @@
+//! Seeks as commands (`sledid seek`, `sledid_host::control::seek`, issue 14): the access time
+//! against the minimum-time bound of the true plant, per seek.
+//!
+//! - the bound's own bang-bang drive, played open loop in the twin's loop, reaches the band for
+//!   good exactly at the bound (the bound and the access time see the same physics and readings);
+//! - no closed-loop run beats the bound, on the nominal sled and on 30 plants of the family, under
+//!   the baseline and the servo fed the step and the servo following the S-curve;
+//! - a seek that never settles, or whose dwell is shorter than 10 ms, is unsettled and counts with
+//!   its whole length;
+//! - on the nominal sled, what today's controllers measure (the seek mode's assertions are to be
+//!   tightened when `control::seek::seek_design` switches the library's seek mode on);
+//! - the command writes its files and refuses bad arguments, naming them.
+
+use std::cell::Cell;
+use std::path::PathBuf;
+use std::process::Command;
+
+use sledid_host::control::design_from_prior;
+use sledid_host::control::family::FamilyRanges;
+use sledid_host::control::seek::{
+    SeekController, SeekOptions, SeekRow, SeekSummary, rows_of, run_seeks, seek_design,
+};
+use sledid_host::twin::{
+    PlantParams, ReferenceProfile, SeekDistribution, Twin, TwinParams, min_time_seek,
+};
+
+fn scratch_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sledid-seek-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// A twin of `plant` visiting log-uniform targets with step references.
+fn step_twin(plant: &PlantParams, seeks: u32, dwell_s: f64, seed: u64) -> Twin {
+    let mut params = TwinParams {
+        plant: plant.clone(),
+        ..TwinParams::default()
+    };
+    params.reference.seek_count = seeks;
+    params.reference.seek_distribution = SeekDistribution::LogUniform;
+    params.reference.profile = ReferenceProfile::Step;
+    params.reference.dwell_s = dwell_s;
+    Twin::new(params, seed).unwrap()
+}
+
+/// Runs `twin` with, at each command, the bound's drive from where the sled is, played open loop.
+fn play_the_bound(twin: &mut Twin) {
+    let plant = twin.params().plant.clone();
+    let x = Cell::new(0.0);
+    let (mut plan, mut i, mut last_r) = (Vec::new(), 0, f64::NAN);
+    let mut controller = |r: f64, _y: f64| {
+        if r != last_r {
+            last_r = r;
+            plan = min_time_seek(&plant, x.get(), r as i64)
+                .map(|b| b.drive_v)
+                .unwrap_or_default();
+            i = 0;
+        }
+        i += 1;
+        plan.get(i - 1).copied().unwrap_or(0.0)
+    };
+    loop {
+        x.set(twin.plant().position_m());
+        if twin.step(&mut controller).is_none() {
+            break;
+        }
+    }
+}
+
+/// The bound's drive, played open loop on a noise-free sensor, has the bound as its access time,
+/// to the sample, on every seek of the nominal sled and of a slow, sticky one (both directions).
+/// Trips on an access time or a bound off by a sample, a bound on other physics than the twin's,
+/// a drive that does not do what the bound says, or a bound whose band is on the true position
+/// (|x − T| ≤ 1 quantum) instead of the reading (checked: a 41-track seek then has access 3.19 ms
+/// against a bound of 3.64).
+#[test]
+fn the_bounds_drive_played_open_loop_has_the_bound_as_access_time() {
+    let nominal = PlantParams {
+        noise_m: 0.0,
+        ..PlantParams::default()
+    };
+    let slow = PlantParams {
+        mass_kg: 0.2,
+        viscous_n_s_per_m: 200.0,
+        force_per_volt_n_per_v: 1.2,
+        coulomb_n: 0.15,
+        static_n: 0.4,
+        ..nominal.clone()
+    };
+    for plant in [nominal, slow] {
+        let mut twin = step_twin(&plant, 40, 0.3, 3);
+        play_the_bound(&mut twin);
+        let rows = rows_of(&twin);
+        assert_eq!(rows.len(), 40);
+        assert!(rows.iter().any(|r| r.distance_tracks < 0));
+        for r in &rows {
+            assert!(r.settled, "{r:?}");
+            assert_eq!(Some(r.access_ms), r.bound_ms, "{r:?}");
+            assert_eq!(r.limit_cycle_pulses, 0);
+        }
+    }
+}
+
+/// The rows of `controller` on `params`, 40 seeks.
+fn rows(params: &TwinParams, controller: &SeekController) -> (Vec<SeekRow>, SeekSummary) {
+    let options = SeekOptions {
+        seeks: 40,
+        ..SeekOptions::default()
+    };
+    let run = run_seeks(params, controller, &options).unwrap();
+    (run.rows, run.summary)
+}
+
+/// No controller reaches the band for good sooner than the bound: every seek with a bound has
+/// access / bound ≥ 1, under the baseline and the servo fed the step and the servo following the
+/// S-curve, on the nominal sled and plants 0–29 of family seed 1 (sensor noise as drawn, up to 0.1
+/// quantum). Measured: 3,720 seeks, smallest ratio 1.000 — the servo fed the step reaches the
+/// bound itself on two short seeks (25 and 32 tracks). Trips on a bound one
+/// sample too long (those two seeks beat it), e.g. a switch search that loses a sample.
+#[test]
+fn no_closed_loop_run_beats_the_bound() {
+    let ranges = FamilyRanges::default();
+    let plants = std::iter::once(TwinParams::default())
+        .chain((0..30).map(|i| ranges.draw(1, i).twin(&TwinParams::default())));
+    let mut smallest = f64::INFINITY;
+    let mut seeks = 0;
+    for params in plants {
+        let design = design_from_prior(&params, &PlantParams::default()).unwrap();
+        for c in [
+            SeekController::Baseline,
+            SeekController::Seek(seek_design(design)),
+            SeekController::Reference(design),
+        ] {
+            for r in rows(&params, &c).0 {
+                if let Some(q) = r.ratio {
+                    seeks += 1;
+                    smallest = smallest.min(q);
+                    assert!(q >= 1.0, "{}: {r:?}", c.label());
+                }
+            }
+        }
+    }
+    println!("{seeks} seeks, smallest access / bound {smallest:.3}");
+    assert!(seeks >= 31 * 3 * 39);
+}
+
+/// A controller that never drives leaves every seek unsettled, counted with its whole length
+/// (and with a bound); a seek that reaches the band with less than 10 ms of its dwell left is
+/// unsettled too. Trips on an access time that ignores the dwell or drops unsettled seeks.
+#[test]
+fn unsettled_seeks_count_with_their_whole_length() {
+    let plant = PlantParams {
+        noise_m: 0.0,
+        ..PlantParams::default()
+    };
+    let ts_ms = plant.ts_s * 1e3;
+    let mut idle = step_twin(&plant, 5, 0.05, 1);
+    let mut zero = |_: f64, _: f64| 0.0;
+    idle.run(&mut zero);
+    let rows = rows_of(&idle);
+    let s = SeekSummary::of("idle", &rows, 0.05);
+    assert_eq!(s.unsettled, 5);
+    for (r, seek) in rows.iter().zip(idle.seeks()) {
+        let length = seek.end_index.unwrap() - seek.start_index;
+        assert!(!r.settled && r.bound_ms.is_some());
+        assert_eq!(r.access_ms, length as f64 * ts_ms);
+    }
+    // The bound's drive settles every seek of a 25 ms dwell (≥ 10 ms after the longest bound,
+    // 22 samples); with a 9.6 ms dwell (21 samples, one short of 10 ms) none is settled although
+    // each ends in the band.
+    let mut short = step_twin(&plant, 5, 21.0 * plant.ts_s, 1);
+    play_the_bound(&mut short);
+    let rows = rows_of(&short);
+    assert!(rows.iter().all(|r| !r.settled), "{rows:?}");
+    let mut enough = step_twin(&plant, 5, 0.025, 1);
+    play_the_bound(&mut enough);
+    assert!(rows_of(&enough).iter().all(|r| r.settled));
+}
+
+/// What today's controllers measure on the nominal sled (100 log-uniform seeks of 20–2,000
+/// tracks, seed 1, designed from the nominal prior), `BENCHMARKS.md` (controller, seeks):
+///
+/// | controller | access median (ms) | access / bound median | pulses | unsettled |
+/// |---|---|---|---|---|
+/// | servo following the 30 ms S-curve | 27.30 | 9.67 | 0 | 0 |
+/// | servo fed the step (seek mode not switched on) | 12.74 | 3.63 | 0 | 0 |
+/// | baseline PID fed the step | 51.87 | 17.21 | 856 | 0 |
+///
+/// Asserted: the reference-following servo cannot arrive before its reference (median access
+/// 25–31 ms, every seek ≥ 3× its bound from 200 tracks on); the servo fed the step is ≥ 2× faster
+/// (issue 14's target, ≥ 3× with the seek mode, not met today); the baseline's limit cycle is
+/// counted (pulses). Trips on a harness that measures from the reference's arrival instead of the
+/// command (the reference-following median falls near 0) or loses the pulses.
+#[test]
+fn today_on_the_nominal_sled() {
+    let params = TwinParams::default();
+    let design = design_from_prior(&params, &params.plant).unwrap();
+    let o = SeekOptions::default();
+    let run = |c: SeekController| run_seeks(&params, &c, &o).unwrap();
+    let reference = run(SeekController::Reference(design));
+    let seek = run(SeekController::Seek(seek_design(design)));
+    let baseline = run(SeekController::Baseline);
+    for r in [&reference, &seek, &baseline] {
+        let s = &r.summary;
+        println!(
+            "{}: access median {:.2} ms, ratio median / p95 {:.2} / {:.2}, ≥ 200: {:.2}, pulses {}, unsettled {}",
+            s.controller,
+            s.access_ms.median,
+            s.ratio.median,
+            s.ratio.p95,
+            s.ratio_long_median,
+            s.limit_cycle_pulses,
+            s.unsettled
+        );
+        assert_eq!(s.seeks, 100);
+        assert_eq!(s.without_bound, 0);
+    }
+    let (r, s) = (&reference.summary, &seek.summary);
+    assert!((25.0..=31.0).contains(&r.access_ms.median), "{r:?}");
+    assert_eq!((r.unsettled, r.limit_cycle_pulses), (0, 0));
+    assert!(
+        reference
+            .rows
+            .iter()
+            .filter(|x| x.distance_tracks.abs() >= 200)
+            .all(|x| x.ratio.is_some_and(|q| q >= 3.0))
+    );
+    assert!(r.access_ms.median / s.access_ms.median >= 2.0, "{s:?}");
+    assert_eq!(s.unsettled, 0);
+    assert!(baseline.summary.limit_cycle_pulses >= 500);
+}
+
+/// `sledid seek` writes summary.json (both controllers, per-seek rows, the bound curve) and its
+/// two figures; `control-family --passes seek` writes seek.{json,md,png}; bad arguments fail with
+/// the argument named.
+#[test]
+fn the_commands_write_their_files_and_name_bad_arguments() {
+    let exe = env!("CARGO_BIN_EXE_sledid");
+    let dir = scratch_dir("cli");
+    let out = Command::new(exe)
+        .args([
+            "seek",
+            "--seeks",
+            "6",
+            "--distances",
+            "30:300",
+            "--seed",
+            "2",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let tested = &json["under_test"];
+    assert_eq!(tested["summary"]["controller"], "seek");
+    assert_eq!(tested["seeks"].as_array().unwrap().len(), 6);
+    for row in tested["seeks"].as_array().unwrap() {
+        let d = row["distance_tracks"].as_i64().unwrap().abs();
+        assert!((30..=300).contains(&d));
+        assert!(row["access_ms"].as_f64().unwrap() >= row["bound_ms"].as_f64().unwrap());
+    }
+    assert_eq!(
+        json["reference_following"]["summary"]["controller"],
+        "reference_following"
+    );
+    assert!(json["bound_curve"].as_array().unwrap().len() > 10);
+    for f in ["seek_vs_distance.png", "seek_steps.png"] {
+        assert!(
+            std::fs::metadata(dir.join(f)).unwrap().len() > 10_000,
+            "{f}"
+        );
+    }
+    let fam = scratch_dir("family");
+    let out = Command::new(exe)
+        .args([
+            "control-family",
+            "--plants",
+            "3",
+            "--seeks",
+            "5",
+            "--passes",
+            "seek",
+            "--out",
+        ])
+        .arg(&fam)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["seek.json", "seek.md", "seek.png"] {
+        assert!(fam.join(f).exists(), "{f}");
+    }
+    assert!(!fam.join("family.json").exists());
+    for (args, named) in [
+        (vec!["--distances", "300"], "--distances"),
+        (vec!["--distances", "300:30"], "--distances"),
+        (vec!["--seeks", "0"], "--seeks"),
+        (vec!["--dwell-ms", "0"], "--dwell-ms"),
+        (
+            vec!["--plant", "/nonexistent/plant.json"],
+            "/nonexistent/plant.json",
+        ),
+    ] {
+        let out = Command::new(exe)
+            .arg("seek")
+            .args(&args)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(named),
+            "{args:?}: {err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&fam);
+}
