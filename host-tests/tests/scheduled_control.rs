@@ -698,7 +698,8 @@ fn output_map_acts_only_in_settle_and_identity_is_exact() {
 /// drive (saturation), all ending at rest in the target's band. Asserted: every seek settles, no
 /// limit-cycle pulse, the true holding error under one quantum, and a median settling time at
 /// most a third of the reference-following servo's 30.5 ms (issue 14: ≥ 3× shorter). Measured
-/// 8.64 ms median (p90 11.8, max 18.7), overshoot ≤ 10 quanta, holding error ≤ 0.52. A law
+/// 9.10 ms median (p90 11.8, max 22.8), overshoot ≤ 12 quanta, holding error ≤ 0.49 (8.64 ms
+/// with the prior's velocity pole at 0.5, before the family's p95 chose 0.7). A law
 /// without the braking curve (full drive to the target) overshoots and hunts; one braking on the
 /// increments instead of the sampled velocity rings (both tried).
 #[test]

@@ -4,11 +4,10 @@
 //! - the bound's own bang-bang drive, played open loop in the twin's loop, reaches the band for
 //!   good exactly at the bound (the bound and the access time see the same physics and readings);
 //! - no closed-loop run beats the bound, on the nominal sled and on 30 plants of the family, under
-//!   the baseline and the servo fed the step and the servo following the S-curve;
+//!   the baseline, the seek mode and the servo following the S-curve;
 //! - a seek that never settles, or whose dwell is shorter than 10 ms, is unsettled and counts with
 //!   its whole length;
-//! - on the nominal sled, what today's controllers measure (the seek mode's assertions are to be
-//!   tightened when `control::seek::seek_design` switches the library's seek mode on);
+//! - on the nominal sled, what the controllers measure (the seek mode against issue 14's targets);
 //! - the command writes its files and refuses bad arguments, naming them.
 
 use std::cell::Cell;
@@ -18,7 +17,8 @@ use std::process::Command;
 use sledid_host::control::design_from_prior;
 use sledid_host::control::family::FamilyRanges;
 use sledid_host::control::seek::{
-    SeekController, SeekOptions, SeekRow, SeekSummary, rows_of, run_seeks, seek_design,
+    SeekController, SeekOptions, SeekRow, SeekSummary, access_samples, rows_of, run_seeks,
+    seek_design,
 };
 use sledid_host::twin::{
     PlantParams, ReferenceProfile, SeekDistribution, Twin, TwinParams, min_time_seek,
@@ -111,36 +111,71 @@ fn rows(params: &TwinParams, controller: &SeekController) -> (Vec<SeekRow>, Seek
     (run.rows, run.summary)
 }
 
-/// No controller reaches the band for good sooner than the bound: every seek with a bound has
-/// access / bound ≥ 1, under the baseline and the servo fed the step and the servo following the
-/// S-curve, on the nominal sled and plants 0–29 of family seed 1 (sensor noise as drawn, up to 0.1
-/// quantum). Measured: 3,720 seeks, smallest ratio 1.000 — the servo fed the step reaches the
-/// bound itself on two short seeks (25 and 32 tracks). Trips on a bound one
-/// sample too long (those two seeks beat it), e.g. a switch search that loses a sample.
+/// No controller reaches the band for good sooner than the bound. The bound is defined on the
+/// noise-free readings `round(x/q)` (`twin::bound`), so the check is too: every seek's access
+/// time recomputed on the true positions of its run is ≥ its bound, under the baseline, the seek
+/// mode and the servo following the S-curve, on the nominal sled and plants 0–29 of family
+/// seed 1. Measured: 3,720 seeks, smallest noise-free access / bound 1.000 (the seek mode reaches
+/// the bound itself on short seeks). On the sensor's noisy readings (up to 0.1 quantum) a sled
+/// passing 1.5 quanta off can read 1 a sample early: the smallest noisy ratio is 0.80 (family
+/// plant 22, a 30-track seek of 5 samples reaching the band at its 4th on a reading rounded in),
+/// so the noisy ratio is bounded by one sample of the bound, not by 1. Trips on a bound one
+/// sample too long (the seek mode's seeks that reach it beat it), e.g. a switch search that
+/// loses a sample, or on an access time measured from a later sample than the command.
 #[test]
 fn no_closed_loop_run_beats_the_bound() {
     let ranges = FamilyRanges::default();
     let plants = std::iter::once(TwinParams::default())
         .chain((0..30).map(|i| ranges.draw(1, i).twin(&TwinParams::default())));
-    let mut smallest = f64::INFINITY;
+    let options = SeekOptions {
+        seeks: 40,
+        ..SeekOptions::default()
+    };
+    let (mut smallest, mut smallest_noisy) = (f64::INFINITY, f64::INFINITY);
     let mut seeks = 0;
     for params in plants {
         let design = design_from_prior(&params, &PlantParams::default()).unwrap();
+        let q = params.plant.quantum_m;
+        let min_dwell = sledid_host::control::seek::access::min_dwell_samples(params.plant.ts_s);
         for c in [
             SeekController::Baseline,
             SeekController::Seek(seek_design(design)),
             SeekController::Reference(design),
         ] {
-            for r in rows(&params, &c).0 {
-                if let Some(q) = r.ratio {
-                    seeks += 1;
-                    smallest = smallest.min(q);
-                    assert!(q >= 1.0, "{}: {r:?}", c.label());
-                }
+            let run = run_seeks(&params, &c, &options).unwrap();
+            let samples = run.run.twin.samples();
+            let ts_ms = params.plant.ts_s * 1e3;
+            for (row, seek) in run.rows.iter().zip(run.run.twin.seeks()) {
+                let (Some(bound_ms), Some(end)) = (row.bound_ms, seek.end_index) else {
+                    continue;
+                };
+                let bound = (bound_ms / ts_ms).round() as usize;
+                let true_readings: Vec<i64> = samples[seek.start_index..end]
+                    .iter()
+                    .map(|s| (s.x_m / q).round() as i64)
+                    .collect();
+                let access = access_samples(&true_readings, seek.target_counts, min_dwell)
+                    .unwrap_or(true_readings.len());
+                seeks += 1;
+                smallest = smallest.min(access as f64 / bound as f64);
+                assert!(
+                    access >= bound,
+                    "{}: {row:?}, noise-free access {access}",
+                    c.label()
+                );
+                let noisy = row.ratio.unwrap();
+                smallest_noisy = smallest_noisy.min(noisy);
+                assert!(
+                    row.access_ms >= bound_ms - ts_ms - 1e-9,
+                    "{}: {row:?}",
+                    c.label()
+                );
             }
         }
     }
-    println!("{seeks} seeks, smallest access / bound {smallest:.3}");
+    println!(
+        "{seeks} seeks, smallest access / bound {smallest:.3} (noise-free), {smallest_noisy:.3} (noisy)"
+    );
     assert!(seeks >= 31 * 3 * 39);
 }
 
@@ -177,20 +212,23 @@ fn unsettled_seeks_count_with_their_whole_length() {
     assert!(rows_of(&enough).iter().all(|r| r.settled));
 }
 
-/// What today's controllers measure on the nominal sled (100 log-uniform seeks of 20–2,000
-/// tracks, seed 1, designed from the nominal prior), `BENCHMARKS.md` (controller, seeks):
+/// What the controllers measure on the nominal sled (100 log-uniform seeks of 20–2,000 tracks,
+/// seed 1, designed from the nominal prior), `BENCHMARKS.md` (controller, seeks):
 ///
-/// | controller | access median (ms) | access / bound median | pulses | unsettled |
-/// |---|---|---|---|---|
-/// | servo following the 30 ms S-curve | 27.30 | 9.67 | 0 | 0 |
-/// | servo fed the step (seek mode not switched on) | 12.74 | 3.63 | 0 | 0 |
-/// | baseline PID fed the step | 51.87 | 17.21 | 856 | 0 |
+/// | controller | access median (ms) | access / bound median | p95 | ≥ 200 tracks | pulses | unsettled |
+/// |---|---|---|---|---|---|---|
+/// | servo following the 30 ms S-curve | 27.30 | 9.67 | 26.5 | 5.59 | 0 | 0 |
+/// | seek mode (time-optimal seeks) | 5.00 | 1.78 | 3.50 | 1.36 | 0 | 0 |
+/// | baseline PID fed the step | 51.87 | 17.21 | 45.0 | 11.78 | 856 | 0 |
 ///
 /// Asserted: the reference-following servo cannot arrive before its reference (median access
-/// 25–31 ms, every seek ≥ 3× its bound from 200 tracks on); the servo fed the step is ≥ 2× faster
-/// (issue 14's target, ≥ 3× with the seek mode, not met today); the baseline's limit cycle is
-/// counted (pulses). Trips on a harness that measures from the reference's arrival instead of the
-/// command (the reference-following median falls near 0) or loses the pulses.
+/// 25–31 ms, every seek ≥ 3× its bound from 200 tracks on); the seek mode is ≥ 3× faster
+/// (issue 14's target; measured 5.45×), within 2× of the bound in the median and 1.4× from 200
+/// tracks on, every seek settled without a pulse; the baseline's limit cycle is counted
+/// (pulses). Trips on a harness that measures from the reference's arrival instead of the
+/// command (the reference-following median falls near 0) or loses the pulses, on a seek mode
+/// switched off (the scheduled law fed the step: 12.7 ms, ratio 3.63) or braking late (pulses,
+/// overshoot past the band: unsettled).
 #[test]
 fn today_on_the_nominal_sled() {
     let params = TwinParams::default();
@@ -225,8 +263,10 @@ fn today_on_the_nominal_sled() {
             .filter(|x| x.distance_tracks.abs() >= 200)
             .all(|x| x.ratio.is_some_and(|q| q >= 3.0))
     );
-    assert!(r.access_ms.median / s.access_ms.median >= 2.0, "{s:?}");
-    assert_eq!(s.unsettled, 0);
+    assert!(r.access_ms.median / s.access_ms.median >= 3.0, "{s:?}");
+    assert!(s.ratio.median <= 2.0, "{s:?}");
+    assert!(s.ratio_long_median <= 1.4, "{s:?}");
+    assert_eq!((s.unsettled, s.limit_cycle_pulses), (0, 0), "{s:?}");
     assert!(baseline.summary.limit_cycle_pulses >= 500);
 }
 

@@ -4,18 +4,22 @@
 //! each seek's access time over the minimum-time bound of its plant. Assertions are on the
 //! families' statistics.
 //!
-//! Issue 14's targets and what today's controllers measure (`BENCHMARKS.md`, controller, seeks).
-//! The seek mode is not switched on yet (`control::seek::seek_design`): "seek mode" is the
-//! scheduled servo fed the step (the command itself); its assertions below are today's figures,
-//! to be tightened to the targets when it is.
+//! Issue 14's targets and what the controllers measure (`BENCHMARKS.md`, controller, seeks).
+//! "Seek mode" is the time-optimal seek ([`sledid::control::SeekMode::TimeOptimal`], switched
+//! on by `control::seek::seek_design`).
 //!
-//! | measure | target | seek mode today, seed 1 / 7 | reference-following, seed 1 / 7 |
+//! | measure | target | seek mode, seed 1 / 7 | reference-following, seed 1 / 7 |
 //! |---|---|---|---|
-//! | access / bound, median over all seeks | ≤ 1.5 | 2.10 / 2.08 | 6.10 / 5.70 |
-//! | access / bound, p95 | ≤ 2.5 | 15.0 / 12.7 | 26.0 / 20.7 |
-//! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.61 / 1.67 | 3.16 / 2.91 |
-//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 77.5 % / 78.5 % | 84.0 % / 86.5 % |
-//! | nominal sled: median access, reference-following / seek mode | ≥ 3 | 27.3 / 12.7 ms = 2.14 | |
+//! | access / bound, median over all seeks | ≤ 1.5 | 1.44 / 1.40 | 6.10 / 5.70 |
+//! | access / bound, p95 | ≤ 2.5 | 10.5 / 13.7 | 26.0 / 20.7 |
+//! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.24 / 1.21 | 3.16 / 2.91 |
+//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 80.0 % / 78.0 % | 84.0 % / 86.5 % |
+//! | nominal sled: median access, reference-following / seek mode | ≥ 3 | 27.3 / 5.0 ms = 5.45 | |
+//!
+//! The medians and the nominal speed-up meet the targets and are asserted at them; the p95 and
+//! the clean plants do not (issue 14's note: fast sleds several times the prior's gain ring
+//! after a time-optimal arrival, and sleds held one cell off flicker to two cells on sensor
+//! noise) and are asserted at today's level so that a regression trips.
 //!
 //! What trips each: a harness that times the reference-following servo from the reference's
 //! arrival instead of the command (its ratios fall towards the seek mode's), a bound that is too
@@ -55,13 +59,13 @@ fn seeks_on_the_plant_family() {
         assert!(f.ratio.median >= 4.0, "seed {seed}: {f:?}");
         assert!(f.ratio_long_median >= 2.5, "seed {seed}: {f:?}");
         assert!(f.clean >= 0.80, "seed {seed}: {f:?}");
-        // The servo fed the step (the seek mode's stand-in): today's figures.
-        assert!(s.ratio.median <= 2.5, "seed {seed}: {s:?}");
-        assert!(s.ratio.p95 <= 20.0, "seed {seed}: {s:?}");
-        assert!(s.ratio_long_median <= 2.0, "seed {seed}: {s:?}");
+        // The seek mode: issue 14's targets where met, today's level where not.
+        assert!(s.ratio.median <= 1.5, "seed {seed}: {s:?}");
+        assert!(s.ratio_long_median <= 1.3, "seed {seed}: {s:?}");
+        assert!(s.ratio.p95 <= 15.0, "seed {seed}: {s:?}");
         assert!(s.clean >= 0.70, "seed {seed}: {s:?}");
-        assert!(s.ratio.median * 2.0 <= f.ratio.median, "seed {seed}");
-        assert!(r.nominal.speedup >= 2.0, "seed {seed}: {:?}", r.nominal);
+        assert!(s.ratio.median * 3.0 <= f.ratio.median, "seed {seed}");
+        assert!(r.nominal.speedup >= 3.0, "seed {seed}: {:?}", r.nominal);
         assert!((25.0..=31.0).contains(&r.nominal.reference.access_ms.median));
     }
 }

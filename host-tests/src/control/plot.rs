@@ -533,7 +533,7 @@ pub fn plot_seek_family(report: &SeekFamilyReport, path: &Path) -> Result<(), St
                 |p| &p.reference,
             ),
             (
-                "seek mode (servo fed the step)",
+                "seek mode (time-optimal seeks)",
                 RGBColor(0, 114, 178),
                 |p| &p.seek,
             ),

@@ -183,7 +183,7 @@ impl ScheduledF64 {
                 level(design.compensation),
                 design.baseline.u_limit_v / design.baseline.u_full_scale_v,
                 t.alpha_prior,
-                t.velocity_pole,
+                t.velocity_pole_prior,
             ),
             _ => None,
         };

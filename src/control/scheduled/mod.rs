@@ -261,6 +261,7 @@ impl ScheduledDesign {
                         model,
                         compensation_level(self.compensation.as_ref()),
                         d.alpha_prior,
+                        d.velocity_pole_prior,
                     )
                     .ok_or(ConfigError::SeekDesign(d.alpha_prior))?;
             }
@@ -527,19 +528,13 @@ impl ScheduledConfig {
     }
 
     /// The time-optimal seek plan of `model` (u_c: the Coulomb level compensated, fraction of full
-    /// scale) braking at `alpha`; `None` when the model cannot brake or a gain does not fit.
+    /// scale) braking at `alpha` with velocity pole `pole`; `None` when the model cannot brake or
+    /// a gain does not fit (or seeks follow the reference).
     #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
-    fn seek_plan(&self, model: VelocityModel, u_c: f32, alpha: f64) -> Option<SeekPlan> {
-        let d = self.seek?;
+    fn seek_plan(&self, model: VelocityModel, u_c: f32, alpha: f64, pole: f64) -> Option<SeekPlan> {
+        self.seek?;
         let u_max = self.baseline.u_limit().to_f64() as f32;
-        SeekPlan::design(
-            model.a,
-            model.b,
-            u_c,
-            u_max,
-            alpha as f32,
-            d.velocity_pole as f32,
-        )
+        SeekPlan::design(model.a, model.b, u_c, u_max, alpha as f32, pole as f32)
     }
 
     /// Time-optimal seeks, if configured.
@@ -898,7 +893,7 @@ impl Controller for ScheduledConfig {
                             compensation_level(self.compensation.as_ref())
                         };
                         g.seek = self
-                            .seek_plan(m, u_c, d.alpha)
+                            .seek_plan(m, u_c, d.alpha, d.velocity_pole)
                             .ok_or(Rejection::GainFormat)?;
                     }
                     Ok((m, g))

@@ -73,7 +73,7 @@ pub struct SeekPlantResult {
     pub factors: PlantFactors,
     /// The bound of the longest seek from rest, ms.
     pub longest_bound_ms: f64,
-    /// The seek mode (the servo fed the step).
+    /// The seek mode (time-optimal seeks).
     pub seek: SeekBrief,
     /// Today's reference-following servo.
     pub reference: SeekBrief,
@@ -265,7 +265,7 @@ pub fn stats_table(r: &SeekFamilyReport) -> String {
     };
     format!(
         "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
-        row("seek mode (servo fed the step)", &r.seek, &r.nominal.seek),
+        row("seek mode (time-optimal seeks)", &r.seek, &r.nominal.seek),
         row(
             "reference-following (30 ms S-curve)",
             &r.reference,

@@ -59,14 +59,11 @@ impl SeekController {
     }
 }
 
-/// The design the seek mode runs, from the design of a prior (`control::design_from_prior`).
-///
-/// Not switched on yet: the design is returned unchanged, so [`SeekController::Seek`] runs the
-/// scheduled law fed the step. The library's time-optimal seeks are switched on here
-/// (`design.with_time_optimal_seeks()`), and every seek-mode run — `sledid seek`, the family's
-/// seek pass, the tests — follows.
+/// The design the seek mode runs, from the design of a prior (`control::design_from_prior`): the
+/// library's time-optimal seeks (`design.with_time_optimal_seeks()`); every seek-mode run —
+/// `sledid seek`, the family's seek pass, the tests — goes through here.
 pub fn seek_design(design: ScheduledDesign) -> ScheduledDesign {
-    design
+    design.with_time_optimal_seeks()
 }
 
 /// The seek schedule.
