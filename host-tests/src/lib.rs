@@ -8,6 +8,7 @@ pub mod control_plot;
 pub mod family;
 pub mod faults;
 pub mod pacing;
+pub mod pil;
 pub mod plants;
 pub mod recording;
 pub mod reference;
