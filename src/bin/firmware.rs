@@ -32,10 +32,11 @@
 //! timing line.
 //!
 //! # Output (defmt frames on semihosting stdout)
-//! The result line ([`fw_config::Summary`]: samples, hand-overs, redesign outcomes, the checksum
-//! of every answer, the identifier's final θ), which the host's reference must equal, and the
-//! timing line: `clock_hz=… reload=… overruns=… stalls=… max_ticks=… dwt_max_cycles=…
-//! late_dropped=… stack=used/size link_ok=…` (the part's name is on the first line).
+//! The result line ([`fw_config::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
+//! checksum of every answer, the identifier's final θ), which the host's reference must equal
+//! (it expects one overrun per stall it asked for), and the timing line: `clock_hz=… reload=…
+//! stalls=… max_ticks=… dwt_max_cycles=… late_dropped=… stack=used/size link_ok=…` (the part's
+//! name is on the first line).
 //!
 //! ```text
 //! cargo xtask pil          # both images under QEMU, 20 seeks each, checked against the host
@@ -65,10 +66,11 @@ mod target {
     use defmt_semihosting as _;
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
-    use sledid::servo::{ServoFlags, SledServo};
+    use sledid::control::scheduled::{RedesignJob, RedesignResult};
+    use sledid::servo::{Posted, ServoFlags, SledServo};
 
     use super::fw_config::{
-        self, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX, Summary,
+        self, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX,
         TIMING_PREFIX, Ticker, UpFrame,
     };
 
@@ -175,17 +177,6 @@ mod target {
         }
     }
 
-    /// How a run ended.
-    #[derive(Clone, Copy)]
-    struct Finished {
-        /// The loop's outcome.
-        summary: Summary,
-        /// The handler's clocks.
-        timing: Timing,
-        /// False when the link failed (the host went away or sent a bad frame) before the end.
-        link_ok: bool,
-    }
-
     /// Everything the SysTick handler steps, shared with the background under a critical
     /// section: the handler holds it for one period's work; the background only for taking a
     /// job and for handing a result back (a copy), never while it computes.
@@ -203,22 +194,23 @@ mod target {
         release_at: u32,
         /// Samples stepped so far.
         stepped: u32,
-        /// Set once the run has ended: the handler returns at once from then on.
-        finished: Option<Finished>,
+        /// Set once the run has ended (false: the link failed, the host went away or sent a bad
+        /// frame): the handler returns at once from then on.
+        ended: Option<bool>,
     }
 
     impl Loop {
         /// One sample period (nothing once the run has ended).
         #[inline(always)]
         fn tick(&mut self) {
-            if self.finished.is_some() {
+            if self.ended.is_some() {
                 return;
             }
             self.timing.enter(&mut self.syst);
             let frame = self.link.receive();
             let kind = frame.and_then(|f| f.command.kind());
             let (Some(frame), Some(Kind::Sample | Kind::Lost)) = (frame, kind) else {
-                self.finish(kind == Some(Kind::End));
+                self.ended = Some(kind == Some(Kind::End));
                 return;
             };
             let up = self.ticker.step(&frame);
@@ -234,17 +226,8 @@ mod target {
             }
             self.timing.exit(&mut self.syst);
             if !sent {
-                self.finish(false);
+                self.ended = Some(false);
             }
-        }
-
-        /// Ends the run.
-        fn finish(&mut self, link_ok: bool) {
-            self.finished = Some(Finished {
-                summary: self.ticker.summary(),
-                timing: self.timing,
-                link_ok,
-            });
         }
     }
 
@@ -352,36 +335,81 @@ mod target {
             timing: Timing::default(),
             release_at: 0,
             stepped: 0,
-            finished: None,
+            ended: None,
         }))
+    }
+
+    /// The background's work on one job (out of line: its frame is only there while it runs).
+    #[inline(never)]
+    fn redesign(config: &SledServo, posted: &Posted<RedesignJob>) -> RedesignResult {
+        config.redesign(posted)
     }
 
     /// The background: takes each job the loop posts, computes the redesign, and hands the
     /// result back into the loop's state (held back as long as the host's fault injection asks);
     /// the hand-over refuses a result whose due sample has passed (the step has flagged the
-    /// miss). Returns the run's end and the number of results refused.
+    /// miss). Returns when the run has ended, with the number of results refused.
     #[inline(never)]
-    fn background(config: &SledServo) -> (Finished, u32) {
+    fn background(config: &SledServo) -> u32 {
         let mut late = 0u32;
         loop {
             if let Some(Some((posted, release_at))) =
                 with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at)))
             {
-                let design = config.redesign(&posted);
+                let design = redesign(config, &posted);
                 // Held back until the loop has stepped `release_at` samples.
-                while with_loop(|l| l.stepped < release_at && l.finished.is_none()) == Some(true) {
+                while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
                     cortex_m::asm::wfi();
                 }
                 let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
                 late = late.wrapping_add(u32::from(accepted == Some(false)));
                 continue; // a job posted meanwhile is waiting
             }
-            if let Some(Some(f)) = with_loop(|l| l.finished) {
-                return (f, late);
+            if with_loop(|l| l.ended.is_some()) == Some(true) {
+                return late;
             }
             // SysTick keeps running: a job posted by the next period wakes us.
             cortex_m::asm::wfi();
         }
+    }
+
+    /// The result and timing lines.
+    #[inline(never)]
+    fn report(late: u32) -> bool {
+        let Some((s, t, link_ok)) =
+            with_loop(|l| (l.ticker.summary(), l.timing, l.ended == Some(true)))
+        else {
+            return false;
+        };
+        let (stack_used, stack_size) = stack_high_water();
+        defmt::println!(
+            "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
+             redesigns={} overruns={=u32} checksum={=u64:#018x} theta={}",
+            RESULT_PREFIX,
+            s.samples,
+            s.lost,
+            s.updates,
+            s.handover,
+            s.redesigns,
+            t.overruns,
+            s.checksum,
+            s.theta_raw
+        );
+        defmt::println!(
+            "{=str} clock_hz={=u32} reload={=u32} stalls={=u32} max_ticks={=u32} \
+             dwt_max_cycles={=u32} late_dropped={=u32} stack={=usize}/{=usize} link_ok={=bool}",
+            TIMING_PREFIX,
+            PART.core_clock_hz,
+            SYST_RELOAD,
+            t.stalls,
+            t.max_ticks,
+            t.dwt_max_cycles,
+            late,
+            stack_used,
+            stack_size,
+            link_ok
+        );
+        link_ok
     }
 
     /// Opens the link, starts SysTick, runs the background until the host ends the run, reports.
@@ -424,39 +452,8 @@ mod target {
         };
         critical_section::with(|cs| LOOP.borrow_ref_mut(cs).replace(state));
 
-        let (finished, late) = background(config);
-        let s = finished.summary;
-        let t = finished.timing;
-        let (stack_used, stack_size) = stack_high_water();
-        defmt::println!(
-            "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
-             redesigns={} checksum={=u64:#018x} theta={}",
-            RESULT_PREFIX,
-            s.samples,
-            s.lost,
-            s.updates,
-            s.handover,
-            s.redesigns,
-            s.checksum,
-            s.theta_raw
-        );
-        defmt::println!(
-            "{=str} clock_hz={=u32} reload={=u32} overruns={=u32} stalls={=u32} \
-             max_ticks={=u32} dwt_max_cycles={=u32} late_dropped={=u32} stack={=usize}/{=usize} \
-             link_ok={=bool}",
-            TIMING_PREFIX,
-            PART.core_clock_hz,
-            SYST_RELOAD,
-            t.overruns,
-            t.stalls,
-            t.max_ticks,
-            t.dwt_max_cycles,
-            late,
-            stack_used,
-            stack_size,
-            finished.link_ok
-        );
-        finished.link_ok
+        let late = background(config);
+        report(late)
     }
 
     /// Reset entry: paint the stack, run, exit through semihosting.

@@ -619,6 +619,9 @@ pub struct Summary {
     pub handover: [u32; 3],
     /// Results accepted by the hand-over: [applied, rejected, skipped].
     pub redesigns: [u32; 3],
+    /// Handlers that ended after the next period had begun (the target's count; the host
+    /// expects one per overrun it asked for, [`Command::stall`]).
+    pub overruns: u32,
     /// FNV-1a 64 of every up frame (module doc).
     pub checksum: u64,
     /// Final velocity θ, raw I12F20.
@@ -639,8 +642,8 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 
 impl fmt::Display for Summary {
     /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
-    /// rejected, skipped] checksum=0x…(16 hex digits) theta=[…]` (raw I12F20), exactly the
-    /// firmware's defmt line.
+    /// rejected, skipped] overruns=… checksum=0x…(16 hex digits) theta=[…]` (raw I12F20),
+    /// exactly the firmware's defmt line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -650,7 +653,11 @@ impl fmt::Display for Summary {
         write_list(f, &self.handover)?;
         f.write_str(" redesigns=")?;
         write_list(f, &self.redesigns)?;
-        write!(f, " checksum={:#018x} theta=", self.checksum)?;
+        write!(
+            f,
+            " overruns={} checksum={:#018x} theta=",
+            self.overruns, self.checksum
+        )?;
         write_list(f, &self.theta_raw)
     }
 }
