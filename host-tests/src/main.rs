@@ -65,6 +65,8 @@ enum Command {
     /// recording, or on a twin recording with the paper's protocol (`--twin`): DIR/study.json and
     /// PNG figures like the paper's.
     Study(Box<StudyArgs>),
+    /// The firmware under QEMU in the loop with the twin, checked against the host (`cargo xtask pil`).
+    Pil(sledid_host::pil::PilArgs),
     /// The twin in closed loop with the library's controller (baseline PID, or the gain-scheduled
     /// controller fed by the identifier): DIR/summary.json (settling, overshoot, limit-cycle
     /// pulses, unsettled seeks, fallbacks) and DIR/step_responses.png.
@@ -618,6 +620,7 @@ fn main() -> ExitCode {
         out: PathBuf::from("out/demo"),
     }) {
         Command::Demo { seed, plant, out } => demo(seed, plant.as_deref(), &out),
+        Command::Pil(args) => sledid_host::pil::pil_cmd(&args),
         Command::Control {
             plant,
             perturb,

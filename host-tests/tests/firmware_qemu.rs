@@ -515,7 +515,7 @@ fn pil_matches_host(core: Core) {
     firmware_built();
     let params = pil::twin_params(pil::SEEKS);
     let faults = Faults::plan();
-    let dir = pil::firmware_target_dir().join(format!("pil-{}", core.name()));
+    let dir = pil::firmware_target_dir().join(format!("test-pil-{}", core.name()));
     let pil: PilRun = pil::run_pil(
         core,
         &pil::firmware_elf(core),

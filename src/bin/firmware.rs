@@ -25,10 +25,9 @@
 //! (`BENCHMARKS.md`).
 //!
 //! # Overruns
-//! On entry the handler clears SysTick's COUNTFLAG; on exit a set COUNTFLAG means the counter
-//! wrapped while it ran — the next period had begun: an overrun, counted. The handler's length
-//! in SysTick ticks (core cycles on a part) is `reload − VAL` on exit; on Cortex-M4 the DWT cycle
-//! counter times it too (QEMU does not model the DWT: there its count stays 0). Both go into the
+//! [`timing`]: SysTick's COUNTFLAG, set again before the handler ends, is an overrun, counted
+//! (result line); the handler's length in SysTick ticks (core cycles on a part) and on
+//! Cortex-M4 in DWT cycles (QEMU does not model the DWT: there that count stays 0) go into the
 //! timing line.
 //!
 //! # Output (defmt frames on semihosting stdout)
@@ -56,6 +55,10 @@
 mod fw_config;
 
 #[cfg(target_os = "none")]
+#[path = "firmware/timing.rs"]
+mod timing;
+
+#[cfg(target_os = "none")]
 mod target {
     use core::cell::RefCell;
 
@@ -73,6 +76,7 @@ mod target {
         self, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX,
         TIMING_PREFIX, Ticker, UpFrame,
     };
+    use super::timing::Timing;
 
     /// The part this image is built for.
     #[cfg(target_abi = "eabihf")]
@@ -133,50 +137,6 @@ mod target {
         }
     }
 
-    /// The handler's clocks: SysTick on every core, the DWT cycle counter on Cortex-M4.
-    #[derive(Clone, Copy, Default)]
-    struct Timing {
-        /// Handlers that ended after the next period had begun.
-        overruns: u32,
-        /// Overruns the host asked for ([`fw_config::Command::stall`]).
-        stalls: u32,
-        /// Longest handler that did not overrun, SysTick ticks since the period began.
-        max_ticks: u32,
-        /// Longest handler, DWT cycles from entry to exit (Cortex-M4; 0 without a DWT).
-        dwt_max_cycles: u32,
-        /// DWT cycle count at this handler's entry.
-        #[cfg(target_abi = "eabihf")]
-        dwt_entry: u32,
-    }
-
-    impl Timing {
-        /// On entry: clears COUNTFLAG (set by the wrap that raised this interrupt).
-        #[inline(always)]
-        fn enter(&mut self, syst: &mut SYST) {
-            let _ = syst.has_wrapped();
-            #[cfg(target_abi = "eabihf")]
-            {
-                self.dwt_entry = cortex_m::peripheral::DWT::cycle_count();
-            }
-        }
-
-        /// On exit: an overrun if the counter wrapped again, else the handler's length.
-        #[inline(always)]
-        fn exit(&mut self, syst: &mut SYST) {
-            let now = SYST::get_current();
-            if syst.has_wrapped() {
-                self.overruns = self.overruns.wrapping_add(1);
-            } else {
-                self.max_ticks = self.max_ticks.max(SYST_RELOAD.saturating_sub(now));
-            }
-            #[cfg(target_abi = "eabihf")]
-            {
-                let cycles = cortex_m::peripheral::DWT::cycle_count().wrapping_sub(self.dwt_entry);
-                self.dwt_max_cycles = self.dwt_max_cycles.max(cycles);
-            }
-        }
-    }
-
     /// Everything the SysTick handler steps, shared with the background under a critical
     /// section: the handler holds it for one period's work; the background only for taking a
     /// job and for handing a result back (a copy), never while it computes.
@@ -194,6 +154,8 @@ mod target {
         release_at: u32,
         /// Samples stepped so far.
         stepped: u32,
+        /// Overruns the host asked for ([`fw_config::Command::stall`]).
+        stalls: u32,
         /// Set once the run has ended (false: the link failed, the host went away or sent a bad
         /// frame): the handler returns at once from then on.
         ended: Option<bool>,
@@ -221,10 +183,10 @@ mod target {
             }
             if frame.command.stall() {
                 // Injected overrun: spin until the next period's interrupt is pending.
-                self.timing.stalls = self.timing.stalls.wrapping_add(1);
+                self.stalls = self.stalls.wrapping_add(1);
                 while !SCB::is_pendst_pending() {}
             }
-            self.timing.exit(&mut self.syst);
+            self.timing.exit(&mut self.syst, SYST_RELOAD);
             if !sent {
                 self.ended = Some(false);
             }
@@ -335,6 +297,7 @@ mod target {
             timing: Timing::default(),
             release_at: 0,
             stepped: 0,
+            stalls: 0,
             ended: None,
         }))
     }
@@ -376,9 +339,14 @@ mod target {
     /// The result and timing lines.
     #[inline(never)]
     fn report(late: u32) -> bool {
-        let Some((s, t, link_ok)) =
-            with_loop(|l| (l.ticker.summary(), l.timing, l.ended == Some(true)))
-        else {
+        let Some((s, t, stalls, link_ok)) = with_loop(|l| {
+            (
+                l.ticker.summary(),
+                l.timing,
+                l.stalls,
+                l.ended == Some(true),
+            )
+        }) else {
             return false;
         };
         let (stack_used, stack_size) = stack_high_water();
@@ -401,7 +369,7 @@ mod target {
             TIMING_PREFIX,
             PART.core_clock_hz,
             SYST_RELOAD,
-            t.stalls,
+            stalls,
             t.max_ticks,
             t.dwt_max_cycles,
             late,

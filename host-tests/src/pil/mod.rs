@@ -29,6 +29,7 @@
 //! latency [`HANDOVER_LATENCY`]; its words are `src/bin/firmware/loop_words.rs`
 //! (`SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`).
 
+mod cli;
 #[path = "../../../src/bin/firmware/config.rs"]
 pub mod fw_config;
 pub mod link;
@@ -43,6 +44,7 @@ use sledid::servo::{SERVO_WORDS_MAX, ServoDesign, ServoOptions, SledServo};
 use crate::control_eval::{identifier_design, scheduled_design_for};
 use crate::reference::control::position_from_quanta;
 use crate::twin::{SledController, Twin, TwinParams};
+pub use cli::{PilArgs, pil_cmd};
 use fw_config::{Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame};
 pub use link::{Core, QemuLink};
 
