@@ -10,8 +10,8 @@
 //!   `SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`.
 //! - `altered_loop_words_are_refused`, `resealed_invalid_values_are_refused_by_the_build_checks`:
 //!   the words' frame and checks.
-//! - `frames_round_trip_and_refuse`, `recording_codec_round_trips_and_refuses`,
-//!   `checksum_is_fnv1a_64`: the link's frames, the trace's codec, the result line's hash.
+//! - `frames_round_trip_and_refuse`, `recording_codec_round_trips_and_refuses`: the link's
+//!   frames, the trace's codec.
 //! - `lockstep_stops_at_the_first_difference`: the PIL's comparison names the first sample a
 //!   target answers differently (a fake target that flips one bit).
 //! - `host_closed_loop_settles_every_seek`: the host's run of the words on the twin.
@@ -386,20 +386,6 @@ fn recording_codec_round_trips_and_refuses() {
         let mut cursor = fw_config::recording::Cursor::new();
         while cursor.next(&bad).is_some() {}
         assert!(cursor.index() <= bad.len() / 3);
-    }
-}
-
-#[test]
-fn checksum_is_fnv1a_64() {
-    // Published FNV-1a 64 test vectors (the empty string is the offset basis).
-    for (input, expected) in [
-        ("", 0xcbf2_9ce4_8422_2325_u64),
-        ("a", 0xaf63_dc4c_8601_ec8c),
-        ("foobar", 0x8594_4171_f739_67e8),
-    ] {
-        let mut h = fw_config::Fnv1a64::new();
-        h.write(input.as_bytes());
-        assert_eq!(h.value(), expected, "FNV-1a 64 of {input:?}");
     }
 }
 

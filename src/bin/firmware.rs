@@ -32,7 +32,7 @@
 //!
 //! # Output (defmt frames on semihosting stdout)
 //! The result line ([`fw_config::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
-//! checksum of every answer, the identifier's final θ), which the host's reference must equal
+//! identifier's final θ), which the host's reference must equal
 //! (it expects one overrun per stall it asked for), and the timing line: `clock_hz=… reload=…
 //! stalls=… max_ticks=… dwt_max_cycles=… late_dropped=… stack=used/size link_ok=…` (the part's
 //! name is on the first line).
@@ -352,7 +352,7 @@ mod target {
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
             "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
-             redesigns={} overruns={=u32} checksum={=u64:#018x} theta={}",
+             redesigns={} overruns={=u32} theta={}",
             RESULT_PREFIX,
             s.samples,
             s.lost,
@@ -360,7 +360,6 @@ mod target {
             s.handover,
             s.redesigns,
             t.overruns,
-            s.checksum,
             s.theta_raw
         );
         defmt::println!(

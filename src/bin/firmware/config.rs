@@ -26,11 +26,12 @@
 //! (or, for a job the host told the target to hold back by [`Command::delay`] ≥ L periods, not
 //! at all), so the two agree exactly whenever the target's background meets L.
 //!
-//! # Up frame and checksum
+//! # Up frame
 //! [`UpFrame::to_bytes`] (16 bytes, little-endian): k (`u32`), u (`i32`, raw I16F16 full
 //! scale), the flags word ([`flags_word`]: controller flags in bits 0–15, servo flags in 16–23,
 //! region index in 24–31), the PWM duty (`u16`), the direction pin (`u8`, 1 = high, u ≥ 0) and
-//! a zero byte. The result line's checksum is FNV-1a 64 over every up frame's bytes, in order.
+//! a zero byte. The host compares every one; the interrupt keeps no checksum of them (it would
+//! cost ≈ 300 cycles a sample for a check the host already makes).
 
 use core::borrow::Borrow;
 use core::convert::Infallible;
@@ -428,58 +429,6 @@ impl OutputPin for PilPin {
     }
 }
 
-/// FNV-1a, 64 bits, over a byte stream.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Fnv1a64(u64);
-
-impl Fnv1a64 {
-    /// The FNV-1a 64 offset basis.
-    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
-    /// The FNV-1a 64 prime.
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-
-    /// The hash of nothing.
-    pub const fn new() -> Self {
-        Self(Self::OFFSET_BASIS)
-    }
-
-    /// Folds `bytes` in.
-    pub fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = Self::mul_prime(self.0 ^ u64::from(b));
-        }
-    }
-
-    /// `h · PRIME mod 2⁶⁴` with 32-bit multiplies only: PRIME = 2⁴⁰ + 0x1b3, and every partial
-    /// product of a 16-bit limb by 0x1b3 fits in 25 bits. Cortex-M0 has no 32×32→64 multiply, so
-    /// the plain `wrapping_mul` costs a `__aeabi_lmul` call per byte (≈ 60 cycles).
-    #[inline(always)]
-    fn mul_prime(h: u64) -> u64 {
-        const LOW: u32 = (Fnv1a64::PRIME & 0xffff_ffff) as u32;
-        const _: () = assert!(Fnv1a64::PRIME == (1 << 40) + LOW as u64 && LOW < 1 << 16);
-        let lo = h as u32;
-        let hi = (h >> 32) as u32;
-        let lo_lo = u64::from((lo & 0xffff) * LOW); // < 2^32: 16 × 9 bits
-        let lo_hi = u64::from((lo >> 16) * LOW) << 16; // < 2^48
-        let hi_part = u64::from(hi.wrapping_mul(LOW)) << 32; // only its low 32 bits survive
-        (h << 40)
-            .wrapping_add(hi_part)
-            .wrapping_add(lo_hi)
-            .wrapping_add(lo_lo)
-    }
-
-    /// The hash so far.
-    pub const fn value(self) -> u64 {
-        self.0
-    }
-}
-
-impl Default for Fnv1a64 {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 /// The interrupt's body, one call per sample period: the frame's position through the servo's
 /// step behind [`ControlLoop`] (position in, drive out over embedded-hal 1.0), the answer, and
 /// the run's totals. The firmware's SysTick handler and the host's reference run step the same
@@ -492,7 +441,6 @@ pub struct Ticker<C> {
     state: SledServoState,
     control: ControlLoop<FrameSensor, PwmDirection<PilPwm, PilPin>>,
     totals: Summary,
-    checksum: Fnv1a64,
 }
 
 impl<C: Borrow<SledServo>> Ticker<C> {
@@ -511,7 +459,6 @@ impl<C: Borrow<SledServo>> Ticker<C> {
                 },
             ),
             totals: Summary::default(),
-            checksum: Fnv1a64::new(),
         }
     }
 
@@ -549,7 +496,6 @@ impl<C: Borrow<SledServo>> Ticker<C> {
             duty: drive.pwm.duty,
             forward: drive.direction.high,
         };
-        self.checksum.write(&up.to_bytes());
         let t = &mut self.totals;
         t.samples = t.samples.wrapping_add(1);
         t.lost = t.lost.wrapping_add(u32::from(lost));
@@ -591,7 +537,6 @@ impl<C: Borrow<SledServo>> Ticker<C> {
     /// What the run has produced so far.
     pub fn summary(&self) -> Summary {
         let mut s = self.totals;
-        s.checksum = self.checksum.value();
         for (dst, t) in s
             .theta_raw
             .iter_mut()
@@ -622,8 +567,6 @@ pub struct Summary {
     /// Handlers that ended after the next period had begun (the target's count; the host
     /// expects one per overrun it asked for, [`Command::stall`]).
     pub overruns: u32,
-    /// FNV-1a 64 of every up frame (module doc).
-    pub checksum: u64,
     /// Final velocity θ, raw I12F20.
     pub theta_raw: [i32; THETA_N],
 }
@@ -642,8 +585,8 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 
 impl fmt::Display for Summary {
     /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
-    /// rejected, skipped] overruns=… checksum=0x…(16 hex digits) theta=[…]` (raw I12F20),
-    /// exactly the firmware's defmt line.
+    /// rejected, skipped] overruns=… theta=[…]` (raw I12F20), exactly the firmware's defmt
+    /// line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -653,11 +596,7 @@ impl fmt::Display for Summary {
         write_list(f, &self.handover)?;
         f.write_str(" redesigns=")?;
         write_list(f, &self.redesigns)?;
-        write!(
-            f,
-            " overruns={} checksum={:#018x} theta=",
-            self.overruns, self.checksum
-        )?;
+        write!(f, " overruns={} theta=", self.overruns)?;
         write_list(f, &self.theta_raw)
     }
 }
