@@ -6,6 +6,7 @@ pub mod compare;
 pub mod control;
 pub mod faults;
 pub mod pacing;
+pub mod pil;
 pub mod plants;
 pub mod recording;
 pub mod reference;

@@ -34,6 +34,8 @@ enum Command {
     /// recording, or on a twin recording with the paper's protocol (`--twin`): DIR/study.json and
     /// PNG figures like the paper's.
     Study(Box<cmd::study::Args>),
+    /// The firmware under QEMU in the loop with the twin, checked against the host (`cargo xtask pil`).
+    Pil(sledid_host::pil::PilArgs),
     /// The twin in closed loop with the library's controller (baseline PID, or the servo designed
     /// from `--prior`, identifying on-line or frozen): DIR/summary.json (settling, overshoot,
     /// limit-cycle pulses, unsettled seeks, fallbacks, holding error) and DIR/step_responses.png.
@@ -66,6 +68,7 @@ fn main() -> ExitCode {
         Command::Seek(a) => cmd::seek::run(&a),
         Command::Replay(a) => cmd::replay::run(&a),
         Command::Study(a) => cmd::study::run(&a),
+        Command::Pil(a) => sledid_host::pil::pil_cmd(&a),
         Command::Soak(a) => cmd::soak::run(&a),
         Command::Twin(a) => cmd::twin::run(&a),
         Command::PacingProbe(a) => cmd::pacing::run(&a),

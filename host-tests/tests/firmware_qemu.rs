@@ -1,174 +1,70 @@
-//! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU, bit-exact with the host
-//! replay of the same recording through the same loop step (`sledid::servo`, shadow mode:
-//! scheduled controller, supervisor, velocity identifier) and the same
-//! redesign rule (`fw_config::replay`).
+//! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU in the loop with the sled
+//! twin (processor in the loop, `sledid_host::pil`), bit-exact with the host's closed loop of the
+//! same library code, plant, seed and configuration words.
 //!
-//! - `fixture_is_the_emps_excerpt`: the committed `fixtures/emps_excerpt.bin` is exactly the first
-//!   `FIXTURE_SAMPLES` (640) rows of `shared/data/emps/DATA_EMPS.csv` converted at the boundary
-//!   (`sledid::Scaling`). Set `SLEDID_WRITE_FIXTURE=1` to regenerate it (deliberately; review the
-//!   diff).
 //! - `loop_words_are_up_to_date`: the committed `src/bin/firmware/loop_words.rs` (the
-//!   configuration the firmware decodes, `sledid::words`) is exactly what
-//!   `fw_config::design().to_words()` gives now, and decodes to `design().build()`. Set
-//!   `SLEDID_WRITE_CONFIG=1` to regenerate it after changing the design (review the diff).
-//! - `altered_loop_words_are_refused`: short, long and corrupted words give
-//!   `ConfigError::Words` (never a panic); random single-word changes either fail or decode.
-//! - `host_replay_runs_the_whole_loop`: the host replay (`fw_config::replay`) is repeatable, the
-//!   supervisor accepts the EMPS velocity prior and the identifier's θ stays near it.
-//! - `cortex_m4f_matches_host_replay`, `cortex_m0_matches_host_replay`: build the firmware for
-//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi` (`cargo build --profile firmware`, the
-//!   size-optimised release profile the image is meant to be flashed with, in its own target
-//!   directory `target/fw` so the outer `cargo test` keeps its build lock), run each ELF under
-//!   `qemu-system-arm` (mps2-an386, microbit) with a timeout, and assert: exit status 0 and the
-//!   result line of the defmt log (semihosting stdout, decoded with `defmt-print -e ELF`) equal to
-//!   the host replay's.
+//!   configuration the firmware decodes, `sledid::words`) is exactly what `pil::design()` gives
+//!   now, and the committed bench trace `fixtures/pil_trace.bin` is exactly the host closed loop
+//!   of those words (the first 3 seeks). `SLEDID_WRITE_CONFIG=1` regenerates both after a change
+//!   of the servo or its design (review the diff):
+//!   `SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`.
+//! - `altered_loop_words_are_refused`, `resealed_invalid_values_are_refused_by_the_build_checks`:
+//!   the words' frame and checks.
+//! - `frames_round_trip_and_refuse`, `recording_codec_round_trips_and_refuses`: the link's
+//!   frames, the trace's codec.
+//! - `lockstep_stops_at_the_first_difference`: the PIL's comparison names the first sample a
+//!   target answers differently (a fake target that flips one bit).
+//! - `host_closed_loop_settles_every_seek`: the host's run of the words on the twin.
+//! - `pil_cortex_m4f`, `pil_cortex_m0`: build the firmware (`cargo build --profile firmware` in
+//!   `target/fw`), run it under `qemu-system-arm -icount` in closed loop with the twin for
+//!   `pil::SEEKS` seeks with the fault plan (`pil::Faults::plan`), and assert: every answer
+//!   bit-identical to the host (lockstep), the whole drive sequence equal to the host
+//!   closed-loop run, the result line equal to the host's, every seek settled, the injected
+//!   overruns counted, the late hand-overs flagged (one while seeking, one while settling) and
+//!   refused, the slow ones adopted at k + L.
 //!
-//! Needs `qemu-system-arm` (`apt-get install -y --no-install-recommends qemu-system-arm`) and
-//! `defmt-print` (`cargo install defmt-print --locked --version 1.2.0`); without them the tests
-//! fail and say so.
+//! Needs `qemu-system-arm` and `defmt-print` (`cargo xtask setup` installs both); without them
+//! the QEMU tests fail and say so.
 
-#[path = "../../src/bin/firmware/config.rs"]
-mod fw_config;
-
-use std::io::ErrorKind;
-use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Stdio};
+use std::path::PathBuf;
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
 
-use fw_config::{
-    FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, Summary, U_FULL_SCALE_V,
-};
 use sledid::error::ConfigError;
-use sledid::servo::{SERVO_WORDS_MAX, SledServo};
+use sledid::servo::{SERVO_WORDS_MAX, ServoFlags, SledServo};
 use sledid::words::{WordWriter, Words};
-use sledid::{Sample, Scaling};
-use sledid_host::recording::{ReaderOptions, RecordingReader};
+use sledid::{PositionI48F16, Sample, SignalI16F16};
+use sledid_host::pil::fw_config::{
+    self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame,
+};
+use sledid_host::pil::{self, Core, Faults, PilRun, Record};
 
-/// The recording the fixture is cut from.
-const EMPS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/data/emps/DATA_EMPS.csv"
-);
-
-/// The two firmware targets.
-const M4F: &str = "thumbv7em-none-eabihf";
-const M0: &str = "thumbv6m-none-eabi";
-
-/// The workspace root (the `sledid` package).
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("host-tests sits in the workspace")
-        .to_path_buf()
-}
-
-/// The committed fixture.
-fn fixture_path() -> PathBuf {
-    workspace().join("fixtures/emps_excerpt.bin")
-}
-
-/// The separate target directory of the firmware builds.
-fn firmware_target_dir() -> PathBuf {
-    workspace().join("target/fw")
-}
-
-/// The first [`FIXTURE_SAMPLES`] rows of the EMPS estimation set, converted to fixed point.
-fn emps_excerpt() -> Vec<Sample> {
-    let options = ReaderOptions::new(
-        "u=vir_ctrl_V,y=qm_meas_pos_m,r=qg_ref_pos_m,t=t_s"
-            .parse()
-            .expect("valid mapping"),
-    );
-    let scaling = Scaling::new(QUANTUM_M, U_FULL_SCALE_V).expect("valid scaling");
-    RecordingReader::open(EMPS, &options)
-        .expect("EMPS recording opens")
-        .take(FIXTURE_SAMPLES)
-        .map(|row| {
-            let row = row.expect("EMPS row");
-            let r = row.r.expect("EMPS has a reference column");
-            scaling.sample(row.y, row.u, r).expect("EMPS row in range")
-        })
-        .collect()
-}
-
-/// The fixture layout (`fw_config::recording::encode`).
-fn encode(samples: &[Sample]) -> Vec<u8> {
-    let mut bytes = Vec::new();
-    fw_config::recording::encode(samples, |b| bytes.push(b))
-        .expect("every row fits the fixture layout");
-    bytes
-}
-
-/// The committed fixture's bytes.
-fn fixture_bytes() -> Vec<u8> {
-    std::fs::read(fixture_path()).expect("fixtures/emps_excerpt.bin is committed")
-}
-
-/// The host replay of the fixture: what the firmware must print.
-fn host_replay() -> Summary {
-    fw_config::replay(&fixture_bytes()).expect("the firmware design builds")
-}
-
-#[test]
-fn fixture_is_the_emps_excerpt() {
-    let samples = emps_excerpt();
-    assert_eq!(samples.len(), FIXTURE_SAMPLES, "rows in the recording");
-    if std::env::var_os("SLEDID_WRITE_FIXTURE").is_some() {
-        std::fs::write(fixture_path(), encode(&samples)).expect("write the fixture");
-        println!("wrote {}", fixture_path().display());
-    }
-    let bytes = fixture_bytes();
-    assert_eq!(bytes, encode(&samples), "fixture bytes");
-    println!(
-        "fixture: {} records in {} bytes ({:.2} per record)",
-        FIXTURE_SAMPLES,
-        bytes.len(),
-        bytes.len() as f64 / FIXTURE_SAMPLES as f64
-    );
-    let mut cursor = fw_config::Cursor::new();
-    for (i, expected) in samples.iter().enumerate() {
-        assert_eq!(cursor.index(), i);
-        assert_eq!(cursor.next(&bytes).as_ref(), Some(expected), "record {i}");
-    }
-    assert_eq!(cursor.next(&bytes), None, "past the end");
-    assert_eq!(cursor.index(), FIXTURE_SAMPLES);
-    assert_eq!(
-        fw_config::recording::record(&bytes, 17).as_ref(),
-        samples.get(17)
-    );
-    assert_eq!(
-        fw_config::recording::record(&bytes, FIXTURE_SAMPLES),
-        None,
-        "past the end"
-    );
-    // The positions are on the encoder grid (whole quanta); the first row is 149 quanta.
-    assert_eq!(samples.first().map(|s| s.y.raw()), Some(149 << 16));
-    assert!(samples.iter().all(|s| s.y.raw() % (1 << 16) == 0));
-}
+/// Seeks of the bench trace (`fixtures/pil_trace.bin`): seek, settle, hold, hand-overs.
+const TRACE_SEEKS: u32 = 3;
 
 /// The generated file of the firmware's configuration words.
 fn loop_words_path() -> PathBuf {
-    workspace().join("src/bin/firmware/loop_words.rs")
+    pil::workspace().join("src/bin/firmware/loop_words.rs")
+}
+
+/// The committed bench trace.
+fn trace_path() -> PathBuf {
+    pil::workspace().join("fixtures/pil_trace.bin")
 }
 
 /// The configuration words of the firmware's design, now.
 fn design_words() -> Vec<u32> {
-    let mut buf = [0u32; SERVO_WORDS_MAX];
-    let n = fw_config::design()
-        .to_words(&mut buf)
-        .expect("the firmware design builds into words");
-    buf[..n].to_vec()
+    pil::design_words().expect("the firmware design builds into words")
 }
 
 /// `loop_words.rs` for `words`.
 fn render_loop_words(words: &[u32]) -> String {
     let mut s = String::from(
         "// @generated by `SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu \
-         loop_words_are_up_to_date`\n\
-         // from `fw_config::design()` with `ServoDesign::to_words`; do not edit.\n\n\
-         /// The loop configuration of [`design`] as configuration words (`sledid::words`): built\n\
-         /// and quantised on the host, decoded and checked on target by [`config`].\n",
+         loop_words`\n\
+         // from `sledid_host::pil::design()` with `ServoDesign::to_words`; do not edit.\n\n\
+         /// The servo configuration of `sledid_host::pil::design()` as configuration words\n\
+         /// (`sledid::words`): built and quantised on the host, decoded and checked on target by\n\
+         /// [`config`].\n",
     );
     s += &format!("pub const LOOP_WORDS: [u32; {}] = [\n", words.len());
     for line in words.chunks(6) {
@@ -179,6 +75,33 @@ fn render_loop_words(words: &[u32]) -> String {
     s
 }
 
+/// The bench trace of the committed words: r and y of the host closed loop's first
+/// [`TRACE_SEEKS`] seeks, in the recording codec (u = 0).
+fn trace_bytes() -> Vec<u8> {
+    let run = pil::run_loop(
+        &pil::twin_params(TRACE_SEEKS),
+        pil::SEED,
+        &Faults::default(),
+        None,
+    )
+    .expect("host closed loop");
+    let samples: Vec<Sample> = run
+        .records
+        .iter()
+        .map(|r| Sample {
+            y: r.frame.y,
+            r: r.frame.r,
+            u: SignalI16F16::ZERO,
+        })
+        .collect();
+    let mut bytes = Vec::new();
+    fw_config::recording::encode(&samples, |b| bytes.push(b))
+        .expect("every sample fits the trace's layout");
+    bytes
+}
+
+/// Trips when the design changed without regenerating the words (or the trace), and when the
+/// words stop decoding to the design.
 #[test]
 fn loop_words_are_up_to_date() {
     let words = design_words();
@@ -197,10 +120,28 @@ fn loop_words_are_up_to_date() {
         "src/bin/firmware/loop_words.rs is stale: regenerate with SLEDID_WRITE_CONFIG=1"
     );
     assert_eq!(fw_config::LOOP_WORDS.as_slice(), words.as_slice());
-    let built = fw_config::design().build().expect("the design builds");
+    let built = pil::design()
+        .and_then(|d| d.build().map_err(|e| e.to_string()))
+        .expect("the design builds");
     assert_eq!(fw_config::config(), Ok(built));
-    assert_eq!(SledServo::from_words(&words), Ok(built));
+    assert_eq!(
+        u32::from(pil::HANDOVER_LATENCY),
+        built.handover_latency(),
+        "L"
+    );
     println!("{} configuration words", words.len());
+
+    // The bench trace is the closed loop of these words: regenerate it with them.
+    let trace = trace_bytes();
+    if std::env::var_os("SLEDID_WRITE_CONFIG").is_some() {
+        std::fs::write(trace_path(), &trace).expect("write the trace");
+        println!("wrote {} ({} bytes)", trace_path().display(), trace.len());
+    }
+    let committed = std::fs::read(trace_path()).expect("fixtures/pil_trace.bin is committed");
+    assert!(
+        committed == trace,
+        "fixtures/pil_trace.bin is stale: regenerate with SLEDID_WRITE_CONFIG=1"
+    );
 }
 
 /// `words` with its CRC-32 recomputed: a deliberate edit that the checksum does not catch, so
@@ -253,7 +194,7 @@ fn altered_loop_words_are_refused() {
     println!("{flips} single-bit flips, every one refused");
     let mut slot = None;
     assert_eq!(SledServo::from_words_into(&words, &mut slot), Ok(()));
-    assert_eq!(slot, fw_config::design().build().ok());
+    assert_eq!(slot, fw_config::config().ok());
     assert!(SledServo::from_words_into(&words[..words.len() - 1], &mut slot).is_err());
     assert_eq!(slot, None);
 }
@@ -268,7 +209,9 @@ fn altered_loop_words_are_refused() {
 #[test]
 fn resealed_invalid_values_are_refused_by_the_build_checks() {
     let words = design_words();
-    let controller = fw_config::design().controller.build().expect("controller");
+    let controller = pil::design()
+        .and_then(|d| d.controller.build().map_err(|e| e.to_string()))
+        .expect("controller");
     let mut buf = [0u32; SERVO_WORDS_MAX];
     let mut w = WordWriter::new(&mut buf);
     controller.put(&mut w).expect("controller words");
@@ -303,6 +246,7 @@ fn resealed_invalid_values_are_refused_by_the_build_checks() {
             pid + at
         );
     }
+    let trace = std::fs::read(trace_path()).expect("fixtures/pil_trace.bin is committed");
     let mut x = 0x2545_f491_4f6c_dd1d_u64;
     let (mut refused, mut stepped) = (0, 0);
     for trial in 0..20_000 {
@@ -320,11 +264,10 @@ fn resealed_invalid_values_are_refused_by_the_build_checks() {
             Err(_) => refused += 1,
             Ok(config) if trial % 50 == 0 => {
                 let mut state = config.new_state();
-                let fixture = fixture_bytes();
-                let mut cursor = fw_config::Cursor::new();
+                let mut cursor = fw_config::recording::Cursor::new();
                 for _ in 0..64 {
-                    let s = cursor.next(&fixture).expect("record");
-                    config.step_shadow(&mut state, s.r, s.y, s.u);
+                    let s = cursor.next(&trace).expect("record");
+                    config.step(&mut state, s.r, s.y);
                 }
                 stepped += 1;
             }
@@ -336,11 +279,51 @@ fn resealed_invalid_values_are_refused_by_the_build_checks() {
     );
 }
 
-/// The recording's codec on values at the edges of its layout, on refused samples, and on cut
-/// or corrupted bytes (never a panic).
+/// The link's frames: every field round-trips; a command with an unknown kind or a reserved bit
+/// is refused (the firmware ends the run on it). Trips on a field at the wrong offset or a
+/// decoder that ignores the reserved bits.
+#[test]
+fn frames_round_trip_and_refuse() {
+    let frame = DownFrame {
+        command: Command::new(Kind::Lost).with_stall().with_delay(200),
+        r: PositionI48F16::from_raw(-0x1234_5678_9abc),
+        y: PositionI48F16::from_raw(0x7fff_0000_0000),
+    };
+    let bytes = frame.to_bytes();
+    assert_eq!(bytes.len(), DOWN_FRAME_BYTES);
+    assert_eq!(DownFrame::from_bytes(&bytes), Some(frame));
+    let c = frame.command;
+    assert_eq!(
+        (c.kind(), c.stall(), c.delay()),
+        (Some(Kind::Lost), true, 200)
+    );
+    assert_eq!(
+        Command::new(Kind::End).with_delay(7).with_delay(3).delay(),
+        3
+    );
+    for bad in [3u32, 1 << 3, 1 << 16, 1 << 31] {
+        let mut b = bytes;
+        b[..4].copy_from_slice(&(c.bits() & !3 | bad).to_le_bytes());
+        assert_eq!(DownFrame::from_bytes(&b), None, "command {bad:#x}");
+    }
+    let up = UpFrame {
+        k: 0xdead_beef,
+        u_raw: -65_536,
+        flags: 0x0201_0a05,
+        duty: 3_600,
+        forward: false,
+    };
+    let b = up.to_bytes();
+    assert_eq!(b.len(), UP_FRAME_BYTES);
+    assert_eq!(UpFrame::from_bytes(&b), up);
+    assert_eq!(up.region_index(), 2);
+    assert_eq!(up.servo_flags(), ServoFlags::REDESIGN_POSTED);
+}
+
+/// The trace's codec on values at the edges of its layout, on refused samples, and on cut or
+/// corrupted bytes (never a panic).
 #[test]
 fn recording_codec_round_trips_and_refuses() {
-    use sledid::{PositionI48F16, SignalI16F16};
     let sample = |y: i64, r: i64, u: i32| Sample {
         y: PositionI48F16::from_raw(y << 16),
         r: PositionI48F16::from_raw(r),
@@ -355,8 +338,9 @@ fn recording_codec_round_trips_and_refuses() {
         sample(-1, 1, -1),
         sample(i64::from(i32::MIN), max_r, i32::from(i16::MIN)),
     ];
-    let bytes = encode(&edges);
-    let mut cursor = fw_config::Cursor::new();
+    let mut bytes = Vec::new();
+    fw_config::recording::encode(&edges, |b| bytes.push(b)).expect("edges fit");
+    let mut cursor = fw_config::recording::Cursor::new();
     for (i, s) in edges.iter().enumerate() {
         assert_eq!(cursor.next(&bytes).as_ref(), Some(s), "edge {i}");
     }
@@ -379,7 +363,7 @@ fn recording_codec_round_trips_and_refuses() {
     }
     // Cut bytes: the records before the cut, then None, and the cursor stays put.
     for cut in 0..bytes.len() {
-        let mut cursor = fw_config::Cursor::new();
+        let mut cursor = fw_config::recording::Cursor::new();
         let mut n = 0;
         while cursor.next(&bytes[..cut]).is_some() {
             n += 1;
@@ -389,237 +373,234 @@ fn recording_codec_round_trips_and_refuses() {
         assert_eq!(cursor.next(&bytes[..cut]), None);
         assert_eq!(cursor, before);
     }
-    // Corrupted bytes of the real fixture: never a panic, never past the end.
-    let fixture = fixture_bytes();
+    // Corrupted bytes of the committed trace: never a panic, never past the end.
+    let trace = std::fs::read(trace_path()).expect("fixtures/pil_trace.bin is committed");
     let mut x = 0x9e37_79b9_7f4a_7c15_u64;
     for _ in 0..200 {
         x ^= x << 13;
         x ^= x >> 7;
         x ^= x << 17;
-        let mut bad = fixture.clone();
+        let mut bad = trace.clone();
         let at = (x as usize) % bad.len();
         bad[at] ^= (x >> 32) as u8 | 1;
-        let mut cursor = fw_config::Cursor::new();
+        let mut cursor = fw_config::recording::Cursor::new();
         while cursor.next(&bad).is_some() {}
         assert!(cursor.index() <= bad.len() / 3);
     }
 }
 
+/// The lockstep comparison stops at the first sample a target answers differently, whatever the
+/// field: a fake target that answers like the host except for one bit of one field at sample 700
+/// (a hand-over adopted one sample late would show as such a difference). Trips when the
+/// comparison skips a field or keeps running past a difference.
 #[test]
-fn host_replay_runs_the_whole_loop() {
-    let s = host_replay();
-    assert_eq!(s.samples as usize, FIXTURE_SAMPLES);
-    // The supervisor accepts the EMPS velocity prior (else the baseline would drive throughout).
-    assert!(!s.fallback, "{s}");
-    // The velocity identifier learns from the recorded drive; θ = [a₁, b₁] stays near the prior
-    // (a = 0.996, b = 69.4 from the whole recording).
-    let theta = s.theta_raw.map(|t| f64::from(t) / f64::from(1 << 20));
-    assert!(
-        (theta[0] + 0.996).abs() < 0.01 && (theta[1] - 69.4).abs() < 10.0,
-        "{s}"
-    );
-    // The same rule twice gives the same line.
-    assert_eq!(host_replay(), s);
-}
-
-#[test]
-fn checksum_is_fnv1a_64() {
-    // Published FNV-1a 64 test vectors (the empty string is the offset basis).
-    for (input, expected) in [
-        ("", 0xcbf2_9ce4_8422_2325_u64),
-        ("a", 0xaf63_dc4c_8601_ec8c),
-        ("foobar", 0x8594_4171_f739_67e8),
+fn lockstep_stops_at_the_first_difference() {
+    let params = pil::twin_params(2);
+    let host = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    for (field, flip) in [
+        (
+            "u",
+            UpFrame {
+                u_raw: 1,
+                ..UpFrame::default()
+            },
+        ),
+        (
+            "flags",
+            UpFrame {
+                flags: 1 << 17,
+                ..UpFrame::default()
+            },
+        ),
+        (
+            "duty",
+            UpFrame {
+                duty: 1,
+                ..UpFrame::default()
+            },
+        ),
+        (
+            "pin",
+            UpFrame {
+                forward: true,
+                ..UpFrame::default()
+            },
+        ),
+        (
+            "k",
+            UpFrame {
+                k: 1,
+                ..UpFrame::default()
+            },
+        ),
     ] {
-        let mut h = fw_config::Fnv1a64::new();
-        h.write(input.as_bytes());
-        assert_eq!(h.value(), expected, "FNV-1a 64 of {input:?}");
+        let mut fake = pil::ReplayTarget::new(host.records.iter().map(|r| r.up).collect());
+        fake.corrupt(700, flip);
+        let run = pil::run_loop(&params, pil::SEED, &Faults::default(), Some(&mut fake))
+            .expect("lockstep run");
+        let m = run
+            .mismatch
+            .unwrap_or_else(|| panic!("{field}: no mismatch found"));
+        assert_eq!(m.k, 700, "{field}");
+        assert_eq!(run.records.len(), 701, "{field}: the run stops there");
     }
+    let mut honest = pil::ReplayTarget::new(host.records.iter().map(|r| r.up).collect());
+    let run = pil::run_loop(&params, pil::SEED, &Faults::default(), Some(&mut honest))
+        .expect("lockstep run");
+    assert_eq!(run.mismatch, None);
+    assert_eq!(run.records, host.records);
 }
 
-/// The program to run for `tool`: from `PATH`, else from cargo's `bin` directory (where
-/// `cargo install` puts it, not always on `PATH`). Fails with the install command when missing.
-fn require_tool(tool: &str, install: &str) -> PathBuf {
-    let cargo_bin = std::env::var_os("CARGO_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")))
-        .map(|home| home.join("bin").join(tool));
-    for candidate in std::iter::once(PathBuf::from(tool)).chain(cargo_bin) {
-        match Command::new(&candidate)
-            .arg("--version")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-        {
-            Ok(_) => return candidate,
-            Err(e) if e.kind() == ErrorKind::NotFound => {}
-            Err(e) => panic!("cannot run `{}`: {e}", candidate.display()),
-        }
-    }
-    panic!("`{tool}` is not installed; the firmware tests need it. Install it with: {install}")
+/// The host's closed loop of the firmware's words on the twin: every seek settles, the run is
+/// repeatable, and the redesigns are adopted at k + L. Trips on a design that no longer settles
+/// the twin (the PIL tests would then fail for the same reason).
+#[test]
+fn host_closed_loop_settles_every_seek() {
+    let params = pil::twin_params(pil::SEEKS);
+    let run = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    let (seeks, settled) = run.settled();
+    println!(
+        "host closed loop: {} samples, {settled}/{seeks} seeks settled, {}",
+        run.records.len(),
+        run.summary
+    );
+    assert_eq!((seeks, settled), (pil::SEEKS as usize, pil::SEEKS as usize));
+    assert_eq!(run.mismatch, None);
+    let again = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    assert_eq!(again.records, run.records);
+    let latency = u32::from(pil::HANDOVER_LATENCY);
+    let posted: Vec<u32> = flagged(&run.records, ServoFlags::REDESIGN_POSTED);
+    let adopted: Vec<u32> = flagged(&run.records, ServoFlags::REDESIGN_ADOPTED);
+    assert!(posted.len() >= pil::SEEKS as usize, "{posted:?}");
+    assert_eq!(
+        adopted,
+        posted.iter().map(|k| k + latency).collect::<Vec<_>>(),
+        "every redesign adopted at k + L"
+    );
 }
 
-/// Requires QEMU; the program to run.
-fn require_qemu() -> PathBuf {
-    require_tool(
-        "qemu-system-arm",
-        "apt-get install -y --no-install-recommends qemu-system-arm",
-    )
+/// The samples whose answer carries `flag`.
+fn flagged(records: &[Record], flag: ServoFlags) -> Vec<u32> {
+    records
+        .iter()
+        .filter(|r| r.up.servo_flags().contains(flag))
+        .map(|r| r.up.k)
+        .collect()
 }
 
-/// Builds the firmware for both targets, once per test process; the ELF of `target`.
-fn firmware_elf(target: &str) -> PathBuf {
+/// Builds the firmware for both cores, once per test process.
+fn firmware_built() {
     static BUILD: OnceLock<Result<(), String>> = OnceLock::new();
-    let built = BUILD.get_or_init(|| {
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let status = Command::new(cargo)
-            .current_dir(workspace())
-            .args([
-                "build",
-                "--profile",
-                "firmware",
-                "-p",
-                "sledid",
-                "--bin",
-                "sledid-fw",
-            ])
-            .args(["--target", M4F, "--target", M0])
-            // Its own target directory: the outer `cargo test` holds the lock of its own.
-            .env("CARGO_TARGET_DIR", firmware_target_dir())
-            // These would replace the config's per-target rustflags (and drop `-Tlink.x`).
-            .env_remove("RUSTFLAGS")
-            .env_remove("CARGO_ENCODED_RUSTFLAGS")
-            .status()
-            .map_err(|e| format!("cannot run cargo: {e}"))?;
-        if status.success() {
-            Ok(())
-        } else {
-            Err(format!("firmware build failed: {status}"))
-        }
-    });
-    if let Err(e) = built {
+    if let Err(e) = BUILD.get_or_init(pil::build_firmware) {
         panic!("{e}");
     }
-    firmware_target_dir().join(format!("{target}/firmware/sledid-fw"))
 }
 
-/// What one QEMU run produced.
-struct QemuRun {
-    /// QEMU's exit status (the firmware's semihosting exit code).
-    status: ExitStatus,
-    /// Semihosting stdout: defmt frames.
-    defmt_frames: PathBuf,
-    /// Semihosting stderr (QEMU's own messages; the firmware writes nothing there).
-    text: String,
-}
-
-/// Runs `elf` on `machine` until it exits through semihosting, or fails after a timeout.
-fn run_qemu(qemu: &Path, elf: &Path, cpu: &str, machine: &str) -> QemuRun {
-    let stem = format!("qemu-{machine}");
-    let out_path = firmware_target_dir().join(format!("{stem}.defmt"));
-    let err_path = firmware_target_dir().join(format!("{stem}.stderr"));
-    let stdout = std::fs::File::create(&out_path).expect("create the QEMU stdout file");
-    let stderr = std::fs::File::create(&err_path).expect("create the QEMU stderr file");
-    let mut child = Command::new(qemu)
-        .args(["-cpu", cpu, "-machine", machine, "-nographic"])
-        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
-        .arg(elf)
-        .stdin(Stdio::null())
-        .stdout(stdout)
-        .stderr(stderr)
-        .spawn()
-        .expect("start qemu-system-arm");
-    // The replay takes FIXTURE_SAMPLES sample periods of emulated time (0.9 s); allow for a slow,
-    // loaded machine.
-    let nominal = Duration::from_nanos(FIXTURE_SAMPLES as u64 * u64::from(SAMPLE_PERIOD_NS));
-    let timeout = nominal * 20 + Duration::from_secs(60);
-    let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait for qemu") {
-            break status;
-        }
-        if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            let text = std::fs::read_to_string(&err_path).unwrap_or_default();
-            panic!("{machine}: QEMU did not exit within {timeout:?}; stderr:\n{text}");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    println!("{machine}: QEMU ran {:.2?}", start.elapsed());
-    let text = std::fs::read_to_string(&err_path).expect("read the QEMU stderr file");
-    QemuRun {
-        status,
-        defmt_frames: out_path,
-        text,
+/// The PIL run of `core` with the fault plan, and every check.
+fn pil_matches_host(core: Core) {
+    firmware_built();
+    let params = pil::twin_params(pil::SEEKS);
+    let faults = Faults::plan();
+    let dir = pil::firmware_target_dir().join(format!("test-pil-{}", core.name()));
+    let pil: PilRun = pil::run_pil(
+        core,
+        &pil::firmware_elf(core),
+        &params,
+        pil::SEED,
+        &faults,
+        &dir,
+    )
+    .expect("the PIL run starts");
+    println!(
+        "{} ({}): {} samples in {:.2?}\n{}",
+        core.name(),
+        core.target(),
+        pil.run.records.len(),
+        pil.wall,
+        pil.log
+    );
+    // Lockstep, result line, exit status, every seek settled, overruns = stalls asked for.
+    if let Err(e) = pil.check() {
+        panic!("{e}");
     }
-}
+    let (seeks, settled) = pil.run.settled();
+    assert!(seeks >= 20 && settled == seeks, "{settled}/{seeks}");
 
-/// Decodes the defmt frames with `defmt-print -e elf`.
-fn decode_defmt(elf: &Path, frames: &Path) -> String {
-    let defmt_print = require_tool(
-        "defmt-print",
-        "cargo install defmt-print --locked --version 1.2.0",
-    );
-    let input = std::fs::File::open(frames).expect("open the defmt frames");
-    let out = Command::new(defmt_print)
-        .arg("-e")
-        .arg(elf)
-        .stdin(input)
-        .output()
-        .expect("run defmt-print");
-    assert!(
-        out.status.success(),
-        "defmt-print failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
+    // The whole drive sequence equals the host closed-loop run's (no target).
+    let host = pil::run_loop(&params, pil::SEED, &faults, None).expect("host run");
+    assert_eq!(pil.run.records.len(), host.records.len());
+    if let Some(k) = (0..host.records.len()).find(|&k| pil.run.records[k] != host.records[k]) {
+        panic!(
+            "sample {k}: target {:?}, host {:?}",
+            pil.run.records[k], host.records[k]
+        );
+    }
+    assert_eq!(pil.run.summary, host.summary);
 
-/// The firmware for `target` under QEMU equals the host replay.
-fn matches_host_replay(target: &str, cpu: &str, machine: &str) {
-    let qemu = require_qemu();
-    let expected = host_replay();
-    let elf = firmware_elf(target);
-    let run = run_qemu(&qemu, &elf, cpu, machine);
-    println!("{machine} ({target}) semihosting text:\n{}", run.text);
-    assert!(
-        run.status.success(),
-        "{machine}: the firmware exited with {} (semihosting EXIT_FAILURE, or a crash); output:\n{}",
-        run.status,
-        run.text
-    );
-
-    assert_eq!(expected.samples as usize, FIXTURE_SAMPLES);
-    let log = decode_defmt(&elf, &run.defmt_frames);
-    println!("{machine} ({target}) defmt log:\n{log}");
-    // `Summary`'s Display is the firmware's defmt line (slices as `[a, b]`).
-    let expected_line = format!("{RESULT_PREFIX} {expected}");
-    let line = log
-        .lines()
-        .find(|l| l.starts_with(RESULT_PREFIX))
-        .unwrap_or_else(|| panic!("{machine}: no result line in the defmt log:\n{log}"));
+    // The plan's faults happened, and the target handled them.
+    let timing = pil.timing.expect("timing line");
+    let log = &pil.run.faults;
+    assert_eq!(log.lost, faults.lost, "lost positions sent");
+    assert_eq!(pil.run.summary.lost, faults.lost.len() as u32);
+    // The result line (equal to the host's, checked above) carries the target's overrun count.
     assert_eq!(
-        line, expected_line,
-        "{machine}: firmware (left) differs from the host replay (right)"
+        (timing.stalls, pil.run.summary.overruns),
+        (3, 3),
+        "injected overruns made and counted"
     );
+    let latency = u32::from(pil::HANDOVER_LATENCY);
+    let records = &pil.run.records;
+    let missed = flagged(records, ServoFlags::HANDOVER_MISSED);
+    let missed_regions: Vec<u8> = missed
+        .iter()
+        .map(|&k| records[k as usize].up.region_index())
+        .collect();
+    assert_eq!(missed.len(), faults.missed_jobs.len(), "{missed:?}");
     assert!(
-        log.contains("telemetry Telemetry { index: 0,"),
-        "{machine}: no telemetry record in the defmt log"
+        missed_regions.contains(&0) && missed_regions.contains(&1),
+        "a hand-over missed while seeking and one while settling: {missed:?} in regions {missed_regions:?}"
     );
-    // The firmware itself fails unless received + dropped = samples; drops (a full queue while
-    // the main loop logs) are possible on a loaded machine and are only reported.
-    assert!(
-        log.contains("telemetry: ") && log.contains(" redesigns; stack high-water "),
-        "{machine}: no telemetry summary in the defmt log"
+    assert_eq!(
+        timing.late_dropped,
+        missed.len() as u32,
+        "late results refused"
+    );
+    for &(job, k, delay) in &log.delayed {
+        let due = (k + latency) as usize;
+        let flags = records[due].up.servo_flags();
+        if u32::from(delay) < latency {
+            assert!(
+                flags.contains(ServoFlags::REDESIGN_ADOPTED),
+                "slow job {job} (posted at {k}, delay {delay}) not adopted at {due}"
+            );
+        } else {
+            assert!(
+                flags.contains(ServoFlags::HANDOVER_MISSED),
+                "late job {job} (posted at {k}) not flagged at {due}"
+            );
+        }
+    }
+    assert_eq!(
+        log.delayed.len(),
+        faults.slow_jobs.len() + faults.missed_jobs.len()
+    );
+    assert!(timing.link_ok);
+    println!(
+        "{}: stalls {}, handler max {} ticks of {}, stack {} B",
+        core.name(),
+        timing.stalls,
+        timing.max_ticks,
+        timing.reload + 1,
+        timing.stack_used
     );
 }
 
 #[test]
-fn cortex_m4f_matches_host_replay() {
-    matches_host_replay(M4F, "cortex-m4", "mps2-an386");
+fn pil_cortex_m4f() {
+    pil_matches_host(Core::M4f);
 }
 
 #[test]
-fn cortex_m0_matches_host_replay() {
-    matches_host_replay(M0, "cortex-m0", "microbit");
+fn pil_cortex_m0() {
+    pil_matches_host(Core::M0);
 }

@@ -17,8 +17,7 @@ use std::process::Command;
 use sledid_host::control::design_from_prior;
 use sledid_host::control::family::FamilyRanges;
 use sledid_host::control::seek::{
-    SeekController, SeekOptions, SeekRow, SeekSummary, access_samples, rows_of, run_seeks,
-    seek_design,
+    SeekController, SeekOptions, SeekSummary, access_samples, rows_of, run_seeks, seek_design,
 };
 use sledid_host::twin::{
     PlantParams, ReferenceProfile, SeekDistribution, Twin, TwinParams, min_time_seek,
@@ -99,16 +98,6 @@ fn the_bounds_drive_played_open_loop_has_the_bound_as_access_time() {
             assert_eq!(r.limit_cycle_pulses, 0);
         }
     }
-}
-
-/// The rows of `controller` on `params`, 40 seeks.
-fn rows(params: &TwinParams, controller: &SeekController) -> (Vec<SeekRow>, SeekSummary) {
-    let options = SeekOptions {
-        seeks: 40,
-        ..SeekOptions::default()
-    };
-    let run = run_seeks(params, controller, &options).unwrap();
-    (run.rows, run.summary)
 }
 
 /// No controller reaches the band for good sooner than the bound. The bound is defined on the

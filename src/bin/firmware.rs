@@ -1,221 +1,213 @@
-//! `sledid-fw`: the whole per-sample loop as firmware. SysTick fires once per sled sample period
-//! (Ts = 0.455 ms); its handler feeds the next sample of a recording embedded in flash (the first
-//! 640 rows of the EMPS benchmark, `fixtures/emps_excerpt.bin`) through the loop in shadow mode
-//! ([`sledid::servo::SledServo::step_shadow`]: the scheduled controller and its supervisor
-//! compute a drive beside the rig's recorded one, the ARX(1,1) velocity identifier learns from
-//! the recorded drive — configuration in [`fw_config`],
-//! decoded at start-up from configuration words the host computed from its design
-//! (`src/bin/firmware/loop_words.rs`, [`sledid::words`]: of the `f64` design only the two RLS
-//! settings are built on the target),
-//! folds every output into a checksum and pushes a telemetry record into a fixed-capacity SPSC
-//! queue. The main loop drains the queue, counts the records, logs a few with defmt (over
-//! semihosting), and runs the controller's slow-rate gain redesign (f32) on the job the handler
-//! posts: the handler never waits for it, it adopts the result at the sample the hand-over names
-//! ([`sledid::servo::handover`], [`fw_config`]'s redesign rule). At the end it prints the
-//! result line (sample and update counts, redesign outcomes, the checksum, the identifier's final
-//! θ), the stack high-water mark, and exits through semihosting;
-//! `host-tests/tests/firmware_qemu.rs` runs it under QEMU for both targets and asserts the result
-//! is bit-exact with the host replay of the same fixture.
+//! `sledid-fw`: the servo as firmware, closing the loop around the host's sled twin
+//! (processor in the loop, PIL).
+//!
+//! SysTick fires once per sled sample period (Ts = 0.455 ms on the part's core clock:
+//! [`fw_config::PART_M4F`], [`fw_config::PART_M0PLUS`]). Its handler reads the period's frame from
+//! the host (reference r(k), quantised position y(k)), runs the servo's step behind the
+//! embedded-hal boundary ([`fw_config::Ticker`]: `sledid::servo::hal::ControlLoop`, position in,
+//! PWM + direction pin out), answers with the drive and the step's flags, and posts the
+//! redesign job a step asks for. The main loop is the background: it computes the redesign (f32)
+//! and hands the result back; the handler adopts it at sample k + L, where L is the configuration
+//! words' hand-over latency, or flags the miss and keeps the old gains — it never waits. The
+//! configuration is decoded at start-up from the words the host computed (`loop_words.rs`,
+//! [`sledid::words`]).
+//!
+//! # The link
+//! Two FIFOs in QEMU's working directory ([`fw_config::LINK_DOWN`], [`fw_config::LINK_UP`]),
+//! opened through semihosting; `host-tests/src/pil` creates them, runs QEMU with
+//! `-icount shift=6,sleep=off` and steps the twin. A semihosting call stops the emulator until
+//! the host answers and costs one instruction of virtual time, so under `-icount` the link
+//! stands for a board's encoder and PWM registers: the handler's timing does not depend on how
+//! fast the host is, and a run is deterministic. QEMU's boards clock SysTick at 25 MHz
+//! (mps2-an386) and 16 MHz (microbit), not at the parts' 72 / 48 MHz, so under QEMU a period
+//! (the parts' reload + 1 ticks) lasts 1.31 / 1.37 ms of virtual time, 20,475 / 21,327
+//! instructions at 64 ns each; the cycle budget is measured with `count_insns.py` instead
+//! (`BENCHMARKS.md`).
+//!
+//! # Overruns
+//! [`timing`]: SysTick's COUNTFLAG, set again before the handler ends, is an overrun, counted
+//! (result line); the handler's length in SysTick ticks (core cycles on a part) and on
+//! Cortex-M4 in DWT cycles (QEMU does not model the DWT: there that count stays 0) go into the
+//! timing line.
+//!
+//! # Output (defmt frames on semihosting stdout)
+//! The result line ([`fw_config::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
+//! identifier's final θ), which the host's reference must equal
+//! (it expects one overrun per stall it asked for), and the timing line: `clock_hz=… reload=…
+//! stalls=… max_ticks=… dwt_max_cycles=… late_dropped=… stack=used/size link_ok=…` (the part's
+//! name is on the first line).
 //!
 //! ```text
-//! # Cortex-M4F (QEMU mps2-an386) and Cortex-M0 (QEMU microbit):
-//! cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
-//!     | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw
-//! cargo run --profile firmware --target thumbv6m-none-eabi --bin sledid-fw \
-//!     | defmt-print -e target/thumbv6m-none-eabi/firmware/sledid-fw
+//! cargo xtask pil          # both images under QEMU, 20 seeks each, checked against the host
 //! ```
-//! The runner (`.cargo/config.toml`) is QEMU. Everything the firmware says is defmt frames on
-//! semihosting stdout (binary: pipe them into `defmt-print`), the result line included; the image
-//! links no `core::fmt` (≈ 5 KB of flash). Built for the host, `main` prints the configuration and
-//! the host replay's result line.
+//! Built for the host, `main` prints the configuration the words decode to.
 //!
-//! For `count_insns.py`, built with `--features fw-bench`, the image also exports `sledid_fw_bench_init` (`--init`),
-//! `sledid_fw_bench_step` (one sample as the interrupt does it: loop step and checksum, on record
-//! `i mod FIXTURE_SAMPLES`), `sledid_fw_bench_loop` (the loop step alone),
-//! `sledid_fw_bench_settle` (the loop step with the reference moved into the settle band, where
-//! the controller settles and holds: the worst case) and
-//! `sledid_fw_bench_overhead` (the same scaffolding without either, to subtract). The bench run
-//! never redesigns (the redesign is outside the interrupt): its gains stay those of the prior.
+//! For `count_insns.py`, built with `--features fw-bench`, the image also exports
+//! `sledid_fw_bench_init` (`--init`) and `sledid_fw_bench_tick` (one interrupt, its frame from a
+//! recorded closed-loop run embedded in the image, `fixtures/pil_trace.bin`), and
+//! `sledid_fw_bench_overhead` (the same scaffolding without the step, to subtract).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 #[path = "firmware/config.rs"]
+#[cfg_attr(not(target_os = "none"), allow(dead_code))] // the host build only prints the words
 mod fw_config;
 
-/// The embedded recording: [`fw_config::FIXTURE_SAMPLES`] delta-encoded records (layout:
-/// [`fw_config::recording`]; the host test checks the count).
-static FIXTURE: &[u8] = include_bytes!("../../fixtures/emps_excerpt.bin");
+#[cfg(target_os = "none")]
+#[path = "firmware/timing.rs"]
+mod timing;
 
 #[cfg(target_os = "none")]
 mod target {
-    use core::cell::Cell;
+    use core::cell::RefCell;
 
     use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::{SCB, SYST};
     use cortex_m_rt::{entry, exception};
-    use cortex_m_semihosting::debug;
     use critical_section::Mutex;
     use defmt_semihosting as _;
-    use heapless::spsc::{Consumer, Producer, Queue};
-    use sledid::control::Redesign;
+    use semihosting::fs::File;
+    use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
-    use sledid::servo::{Posted, SledServo, Ticket};
+    use sledid::servo::{Posted, ServoFlags, SledServo};
 
-    use super::FIXTURE;
     use super::fw_config::{
-        self, Cursor, FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, Run, SAMPLE_PERIOD_NS, Summary,
-        U_FULL_SCALE_V,
+        self, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX,
+        TIMING_PREFIX, Ticker, UpFrame,
     };
+    use super::timing::Timing;
 
-    /// Core clock of the emulated part, Hz: the AN386 FPGA image of the MPS2 board runs its
-    /// Cortex-M4 at 25 MHz (QEMU `mps2-an386`).
+    /// The part this image is built for.
     #[cfg(target_abi = "eabihf")]
-    const CORE_CLOCK_HZ: u32 = 25_000_000;
-    /// Core clock of the emulated part, Hz: the nRF51822 of the micro:bit runs at 16 MHz (QEMU
-    /// `microbit`).
+    const PART: Part = fw_config::PART_M4F;
+    /// The part this image is built for.
     #[cfg(not(target_abi = "eabihf"))]
-    const CORE_CLOCK_HZ: u32 = 16_000_000;
+    const PART: Part = fw_config::PART_M0PLUS;
 
-    /// SysTick reload value for one sample period on the core clock (the counter runs reload + 1
-    /// cycles per period): 11,374 at 25 MHz, 7,279 at 16 MHz.
-    const SYST_RELOAD: u32 = {
-        let cycles = CORE_CLOCK_HZ as u64 * SAMPLE_PERIOD_NS as u64 / 1_000_000_000;
-        assert!(cycles > 1 && cycles <= 1 << 24, "SysTick reload is 24 bits");
-        (cycles - 1) as u32
-    };
-
-    /// Slots of the telemetry queue. It holds one fewer, 15 records: the main loop may fall
-    /// 15 sample periods (6.8 ms) behind, e.g. while a defmt write blocks on semihosting, before a
-    /// record is dropped (and counted in `dropped`).
-    const QUEUE_SLOTS: usize = 16;
+    /// SysTick reload for one sample period on [`PART`]'s clock: 32,759 at 72 MHz, 21,839 at
+    /// 48 MHz.
+    const SYST_RELOAD: u32 = PART.syst_reload();
 
     /// Stack paint pattern.
     const PAINT: u32 = 0xCCCC_CCCC;
     /// Bytes left unpainted below the painter's stack pointer (its own frame, see [`paint_stack`]).
     const STACK_PAINT_GUARD: usize = 64;
 
-    /// What the interrupt hands to the main loop for each sample.
-    #[derive(Clone, Copy, defmt::Format)]
-    struct Telemetry {
-        /// Sample index in the recording.
-        index: u32,
-        /// The controller's drive u(k) (shadow: not applied), raw I16F16 full scale.
-        u_raw: i32,
-        /// The controller's region (0 seek, 1 settle, 2 hold).
-        region: u8,
-        /// The controller's flags (`ControlFlags` bits).
-        control_bits: u16,
-        /// Velocity identifier ŷ(t), raw I16F16 (quanta per sample).
-        y_hat_raw: i32,
-        /// Velocity identifier ε(t), raw I16F16.
-        eps_raw: i32,
-        /// Velocity identifier status bits ([`sledid::Status`]).
-        status_bits: u16,
+    /// The PIL link: two host files (FIFOs) through semihosting.
+    struct Link {
+        /// Host → target frames.
+        down: File,
+        /// Target → host frames.
+        up: File,
     }
 
-    /// What the interrupt publishes once the recording is exhausted.
-    #[derive(Clone, Copy)]
-    struct Finished {
-        /// The run's outcome.
-        summary: Summary,
-        /// Telemetry records that found the queue full.
-        dropped: u32,
+    impl Link {
+        /// Opens the down link, then the up link (the host opens them in the same order).
+        fn open() -> Option<Self> {
+            let down = File::open(LINK_DOWN).ok()?;
+            let up = File::create(LINK_UP).ok()?;
+            Some(Self { down, up })
+        }
+
+        /// The next frame; `None` when the host has gone or sent something that is not a frame.
+        fn receive(&mut self) -> Option<DownFrame> {
+            let mut bytes = [0u8; DOWN_FRAME_BYTES];
+            let mut got = 0;
+            while let Some(rest @ [_, ..]) = bytes.get_mut(got..) {
+                match self.down.read(rest) {
+                    Ok(n) if n > 0 => got += n,
+                    _ => return None,
+                }
+            }
+            DownFrame::from_bytes(&bytes)
+        }
+
+        /// Sends `frame`; false when the host has gone.
+        fn send(&mut self, frame: &UpFrame) -> bool {
+            let bytes = frame.to_bytes();
+            let mut sent = 0;
+            while let Some(rest @ [_, ..]) = bytes.get(sent..) {
+                match self.up.write(rest) {
+                    Ok(n) if n > 0 => sent += n,
+                    _ => return false,
+                }
+            }
+            true
+        }
     }
 
-    /// What one tick did.
-    enum Tick {
-        /// Stepped a sample.
-        Stepped,
-        /// Stepped the last sample.
-        Finished(Finished),
-        /// Nothing left to step.
-        Idle,
+    /// Everything the SysTick handler steps, shared with the background under a critical
+    /// section: the handler holds it for one period's work; the background only for taking a
+    /// job and for handing a result back (a copy), never while it computes.
+    struct Loop {
+        /// The loop.
+        ticker: Ticker<&'static SledServo>,
+        /// The host.
+        link: Link,
+        /// SysTick (the handler reads and clears its COUNTFLAG).
+        syst: SYST,
+        /// The clocks.
+        timing: Timing,
+        /// For the job the last step posted: hand its result back only once this many samples
+        /// have been stepped (the host's fault injection, [`fw_config::Command::delay`]).
+        release_at: u32,
+        /// Samples stepped so far.
+        stepped: u32,
+        /// Overruns the host asked for ([`fw_config::Command::stall`]).
+        stalls: u32,
+        /// Set once the run has ended (false: the link failed, the host went away or sent a bad
+        /// frame): the handler returns at once from then on.
+        ended: Option<bool>,
     }
 
-    /// Everything the SysTick handler owns: the run, the read position and the queue's producer.
-    struct Ticker {
-        /// The loop and its checksum.
-        run: FwRun,
-        /// The read position in the recording (index of the next record).
-        cursor: Cursor,
-        /// Telemetry out.
-        producer: Producer<'static, Telemetry>,
-        /// Records dropped on a full queue.
-        dropped: u32,
-    }
-
-    impl Ticker {
-        /// One sample period: the next record through the loop.
-        fn tick(&mut self) -> Tick {
-            let index = self.cursor.index();
-            let Some(sample) = self.cursor.next(FIXTURE) else {
-                return Tick::Idle;
+    impl Loop {
+        /// One sample period (nothing once the run has ended).
+        #[inline(always)]
+        fn tick(&mut self) {
+            if self.ended.is_some() {
+                return;
+            }
+            self.timing.enter(&mut self.syst);
+            let frame = self.link.receive();
+            let kind = frame.and_then(|f| f.command.kind());
+            let (Some(frame), Some(Kind::Sample | Kind::Lost)) = (frame, kind) else {
+                self.ended = Some(kind == Some(Kind::End));
+                return;
             };
-            // The background's result, if it finished: adopted at its due sample by the step.
-            if let Some((ticket, design)) = critical_section::with(|cs| RESULT.borrow(cs).take()) {
-                self.run.deliver(ticket, design);
+            let up = self.ticker.step(&frame);
+            let sent = self.link.send(&up);
+            self.stepped = up.k.wrapping_add(1);
+            if up.servo_flags().contains(ServoFlags::REDESIGN_POSTED) {
+                self.release_at = self.stepped.wrapping_add(u32::from(frame.command.delay()));
             }
-            let out = self.run.step(&sample);
-            if let Some(job) = self.run.take_job() {
-                critical_section::with(|cs| JOB.borrow(cs).set(Some(job)));
+            if frame.command.stall() {
+                // Injected overrun: spin until the next period's interrupt is pending.
+                self.stalls = self.stalls.wrapping_add(1);
+                while !SCB::is_pendst_pending() {}
             }
-            let record = Telemetry {
-                index: index as u32,
-                u_raw: out.u.raw(),
-                region: out.region.index(),
-                control_bits: out.control.bits(),
-                y_hat_raw: out.identifier.y_hat.raw(),
-                eps_raw: out.identifier.eps.raw(),
-                status_bits: out.identifier.status.bits(),
-            };
-            if self.producer.enqueue(record).is_err() {
-                self.dropped = self.dropped.saturating_add(1);
-            }
-            if self.cursor.index() == FIXTURE_SAMPLES {
-                Tick::Finished(Finished {
-                    summary: self.run.summary(),
-                    dropped: self.dropped,
-                })
-            } else {
-                Tick::Stepped
+            self.timing.exit(&mut self.syst, SYST_RELOAD);
+            if !sent {
+                self.ended = Some(false);
             }
         }
     }
 
-    /// Main → SysTick, once: the ticker (the run state lives once, in `main`'s static storage).
-    static HANDOFF: Mutex<Cell<Option<&'static mut Ticker>>> = Mutex::new(Cell::new(None));
-    /// SysTick → main: the redesign job a step posted (one in flight at most).
-    static JOB: Mutex<Cell<Option<Posted<RedesignJob>>>> = Mutex::new(Cell::new(None));
-    /// Main → SysTick: the finished redesign, adopted at its due sample.
-    static RESULT: Mutex<Cell<Option<(Ticket, RedesignResult)>>> = Mutex::new(Cell::new(None));
-    /// SysTick → main, once: the outcome.
-    static DONE: Mutex<Cell<Option<Finished>>> = Mutex::new(Cell::new(None));
+    /// The loop, once `main` has built it (a pointer: `.bss`).
+    static LOOP: Mutex<RefCell<Option<&'static mut Loop>>> = Mutex::new(RefCell::new(None));
 
-    /// The sample-period interrupt: one step of the loop on the next record. It takes the ticker
-    /// from [`HANDOFF`] once and keeps it; it never waits for the main loop (a redesign arrives
-    /// through [`RESULT`] or is flagged missed at its due sample).
+    /// `f` on the loop, in a critical section (`None` before it is built).
+    #[inline(always)]
+    fn with_loop<T>(f: impl FnOnce(&mut Loop) -> T) -> Option<T> {
+        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).as_deref_mut().map(f))
+    }
+
+    /// The sample-period interrupt: one period of the loop. It never waits for the background (a
+    /// redesign is handed over into the loop's state between two periods, or the step flags the
+    /// miss at its due sample).
     #[exception]
     fn SysTick() {
-        static mut TICKER: Option<&'static mut Ticker> = None;
-        if TICKER.is_none() {
-            *TICKER = critical_section::with(|cs| HANDOFF.borrow(cs).take());
-        }
-        let Some(ticker) = TICKER.as_deref_mut() else {
-            return;
-        };
-        if let Tick::Finished(done) = ticker.tick() {
-            critical_section::with(|cs| DONE.borrow(cs).set(Some(done)));
-        }
-    }
-
-    /// Drains the queue: counts the records, logs the first three and every 500th.
-    fn drain(consumer: &mut Consumer<'static, Telemetry>, received: &mut u32) {
-        while let Some(t) = consumer.dequeue() {
-            *received = received.saturating_add(1);
-            if t.index < 3 || t.index % 500 == 0 {
-                defmt::println!("telemetry {}", t);
-            }
-        }
+        with_loop(Loop::tick);
     }
 
     /// Paints the free stack below the current stack pointer with [`PAINT`], down to `_stack_end`.
@@ -280,16 +272,11 @@ mod target {
         (bottom, top)
     }
 
-    /// The run the handler steps: its configuration borrowed from [`install_config`]'s storage
-    /// (shared: the main loop reads it for the redesigns).
-    type FwRun = Run<&'static SledServo>;
-
     /// Decodes the configuration words into their static storage, once (`None` if they do not
     /// decode, or on a second call). `cortex_m::singleton!` keeps that storage in `.bss` (a
     /// static `Option` would start as a non-zero `None`, in `.data`, and take its size twice: in
-    /// RAM and in flash); it starts empty and the configuration is decoded into it, so that the
-    /// frame holds one copy at most. Out of line, so that the decoding's temporaries are gone
-    /// before [`install`] runs and SysTick starts.
+    /// RAM and in flash). Out of line, so that the decoding's temporaries are gone before
+    /// [`install`] runs and SysTick starts.
     #[inline(never)]
     fn install_config() -> Option<&'static SledServo> {
         let slot = cortex_m::singleton!(CONFIG: Option<SledServo> = None)?;
@@ -297,295 +284,354 @@ mod target {
         slot.as_ref()
     }
 
-    /// Builds the ticker (the run state on `config`, the read position, the producer) into its
-    /// static storage (`.bss`, as [`install_config`]'s), once: `None` on a second call. Called
+    /// Builds the loop into its static storage (`.bss`), once: `None` on a second call. Called
     /// after [`install_config`] has returned, so that their frames do not add up.
     #[inline(never)]
-    fn install(
-        config: &'static SledServo,
-        producer: Producer<'static, Telemetry>,
-    ) -> Option<&'static mut Ticker> {
-        let slot = cortex_m::singleton!(TICKER: Option<Ticker> = None)?;
-        Some(slot.insert(Ticker {
-            run: Run::from_config(config),
-            cursor: Cursor::new(),
-            producer,
-            dropped: 0,
+    #[allow(clippy::mut_from_ref)] // the storage is the singleton's, not `config`'s
+    fn install(config: &'static SledServo, link: Link, syst: SYST) -> Option<&'static mut Loop> {
+        let slot = cortex_m::singleton!(LOOP_STATE: Option<Loop> = None)?;
+        Some(slot.insert(Loop {
+            ticker: Ticker::new(config),
+            link,
+            syst,
+            timing: Timing::default(),
+            release_at: 0,
+            stepped: 0,
+            stalls: 0,
+            ended: None,
         }))
     }
 
-    /// Starts SysTick, waits for the recording to be consumed, reports. `true` on success. The
-    /// ticker (the run state) lives in [`install`]'s static storage: the handler only gets a
-    /// reference to it.
-    fn run(queue: &'static mut Queue<Telemetry, QUEUE_SLOTS>) -> bool {
+    /// The background's work on one job (out of line: its frame is only there while it runs).
+    #[inline(never)]
+    fn redesign(config: &SledServo, posted: &Posted<RedesignJob>) -> RedesignResult {
+        config.redesign(posted)
+    }
+
+    /// The background: takes each job the loop posts, computes the redesign, and hands the
+    /// result back into the loop's state (held back as long as the host's fault injection asks);
+    /// the hand-over refuses a result whose due sample has passed (the step has flagged the
+    /// miss). Returns when the run has ended, with the number of results refused.
+    #[inline(never)]
+    fn background(config: &SledServo) -> u32 {
+        let mut late = 0u32;
+        loop {
+            if let Some(Some((posted, release_at))) =
+                with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at)))
+            {
+                let design = redesign(config, &posted);
+                // Held back until the loop has stepped `release_at` samples.
+                while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
+                    cortex_m::asm::wfi();
+                }
+                let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
+                late = late.wrapping_add(u32::from(accepted == Some(false)));
+                continue; // a job posted meanwhile is waiting
+            }
+            if with_loop(|l| l.ended.is_some()) == Some(true) {
+                return late;
+            }
+            // SysTick keeps running: a job posted by the next period wakes us.
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// The result and timing lines.
+    #[inline(never)]
+    fn report(late: u32) -> bool {
+        let Some((s, t, stalls, link_ok)) = with_loop(|l| {
+            (
+                l.ticker.summary(),
+                l.timing,
+                l.stalls,
+                l.ended == Some(true),
+            )
+        }) else {
+            return false;
+        };
+        let (stack_used, stack_size) = stack_high_water();
+        defmt::println!(
+            "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
+             redesigns={} overruns={=u32} theta={}",
+            RESULT_PREFIX,
+            s.samples,
+            s.lost,
+            s.updates,
+            s.handover,
+            s.redesigns,
+            t.overruns,
+            s.theta_raw
+        );
+        defmt::println!(
+            "{=str} clock_hz={=u32} reload={=u32} stalls={=u32} max_ticks={=u32} \
+             dwt_max_cycles={=u32} late_dropped={=u32} stack={=usize}/{=usize} link_ok={=bool}",
+            TIMING_PREFIX,
+            PART.core_clock_hz,
+            SYST_RELOAD,
+            stalls,
+            t.max_ticks,
+            t.dwt_max_cycles,
+            late,
+            stack_used,
+            stack_size,
+            link_ok
+        );
+        link_ok
+    }
+
+    /// Opens the link, starts SysTick, runs the background until the host ends the run, reports.
+    /// `true` on success.
+    #[inline(never)]
+    fn run() -> bool {
         let Some(cp) = cortex_m::Peripherals::take() else {
             return false;
         };
-        let (producer, mut consumer) = queue.split();
         let Some(config) = install_config() else {
             defmt::println!("sledid-fw: the configuration words do not decode");
             return false;
         };
-        let Some(ticker) = install(config, producer) else {
+        defmt::println!(
+            "sledid-fw: {=str}, SysTick reload {=u32}; hand-over latency {=u32} samples; \
+             waiting for the host",
+            PART.name,
+            SYST_RELOAD,
+            config.handover_latency()
+        );
+        let Some(link) = Link::open() else {
+            defmt::println!("sledid-fw: no PIL link (run it with `cargo xtask pil`)");
             return false;
         };
-        defmt::println!(
-            "sledid-fw: scheduled controller (EMPS cascade PID baseline) + ARX(1,1) velocity, \
-             shadow mode; {=usize} EMPS samples (quantum {=f64} m, u full scale {=f64} V); \
-             SysTick every {=u32} ns, reload {=u32} at {=u32} Hz",
-            FIXTURE_SAMPLES,
-            QUANTUM_M,
-            U_FULL_SCALE_V,
-            SAMPLE_PERIOD_NS,
-            SYST_RELOAD,
-            CORE_CLOCK_HZ
-        );
-        critical_section::with(|cs| HANDOFF.borrow(cs).set(Some(ticker)));
-
+        #[cfg(target_abi = "eabihf")]
+        {
+            let (mut dcb, mut dwt) = (cp.DCB, cp.DWT);
+            dcb.enable_trace();
+            dwt.enable_cycle_counter();
+        }
         let mut syst = cp.SYST;
         syst.set_clock_source(SystClkSource::Core);
         syst.set_reload(SYST_RELOAD);
         syst.clear_current();
         syst.enable_interrupt();
         syst.enable_counter();
-
-        let mut received = 0u32;
-        let mut redesigns = 0u32;
-        let finished = loop {
-            drain(&mut consumer, &mut received);
-            if let Some(job) = critical_section::with(|cs| JOB.borrow(cs).take()) {
-                let design = config.redesign(&job);
-                critical_section::with(|cs| RESULT.borrow(cs).set(Some((job.ticket, design))));
-                let (outcome, at) = (design.outcome, job.ticket.due);
-                redesigns = redesigns.saturating_add(1);
-                if redesigns <= 3 {
-                    let what = match outcome {
-                        Redesign::Applied(_) => "applied",
-                        Redesign::Rejected(_) => "rejected",
-                        Redesign::Skipped => "skipped",
-                    };
-                    defmt::println!("redesign due at sample {=u32}: {=str}", at, what);
-                }
-            }
-            if let Some(f) = critical_section::with(|cs| DONE.borrow(cs).take()) {
-                break f;
-            }
-            // SysTick keeps running, so a result published just before this wakes us next period.
-            cortex_m::asm::wfi();
+        // The handler owns SYST from here on; until the loop is built it does nothing.
+        let Some(state) = install(config, link, syst) else {
+            return false;
         };
-        syst.disable_interrupt();
-        syst.disable_counter();
-        drain(&mut consumer, &mut received);
+        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).replace(state));
 
-        let s = finished.summary;
-        let (stack_used, stack_size) = stack_high_water();
-        defmt::println!(
-            "{=str} samples={=u32} updates={=u32} redesigns={} fallback={=bool} \
-             checksum={=u64:#018x} theta={}",
-            RESULT_PREFIX,
-            s.samples,
-            s.updates,
-            s.redesigns,
-            s.fallback,
-            s.checksum,
-            s.theta_raw
-        );
-        defmt::println!(
-            "telemetry: {=u32} received, {=u32} dropped; {=u32} redesigns; \
-             stack high-water {=usize} of {=usize} bytes",
-            received,
-            finished.dropped,
-            redesigns,
-            stack_used,
-            stack_size
-        );
-        let counted = received.saturating_add(finished.dropped);
-        let [applied, rejected, skipped] = s.redesigns;
-        let outcomes = u32::from(applied) + u32::from(rejected) + u32::from(skipped);
-        s.samples as usize == FIXTURE_SAMPLES && counted == s.samples && outcomes == redesigns
+        let late = background(config);
+        report(late)
     }
 
     /// Reset entry: paint the stack, run, exit through semihosting.
     #[entry]
     fn main() -> ! {
-        static mut QUEUE: Queue<Telemetry, QUEUE_SLOTS> = Queue::new();
         // Nothing calls the bench exports; referencing them keeps the linker from dropping them.
         #[cfg(feature = "fw-bench")]
         core::hint::black_box(&bench::BENCH_EXPORTS);
         paint_stack();
-        let ok = run(QUEUE);
-        debug::exit(if ok {
-            debug::EXIT_SUCCESS
-        } else {
-            debug::EXIT_FAILURE
-        });
-        loop {
-            cortex_m::asm::wfi();
-        }
+        let ok = run();
+        semihosting::process::exit(if ok { 0 } else { 1 })
     }
 
     /// Reports where it panicked (none is expected: the data path has none) and exits with
-    /// failure. The location only, through defmt: formatting the message would link `core::fmt`
-    /// (≈ 5 KB of flash).
+    /// failure. The location only, through defmt: formatting the message would link `core::fmt`.
     #[panic_handler]
     fn panic(info: &core::panic::PanicInfo) -> ! {
         match info.location() {
             Some(l) => defmt::println!("sledid-fw panic at {=str}:{=u32}", l.file(), l.line()),
             None => defmt::println!("sledid-fw panic"),
         }
-        debug::exit(debug::EXIT_FAILURE);
-        loop {
-            cortex_m::asm::wfi();
-        }
+        semihosting::process::exit(1)
     }
 
     /// The `count_insns.py` entry points (`--features fw-bench`; the shipped image leaves them
-    /// out: their run would be a second copy of the loop state, 1.4 KB of RAM and flash).
+    /// out: their run is a second copy of the loop state).
+    ///
+    /// The redesign is the background's work, outside the interrupt: `sledid_fw_bench_init` runs
+    /// the whole trace once with every job redesigned, keeping the results in order, so that the
+    /// measured calls only hand them over (as the background does, between two periods),
+    /// bit-identical to the PIL run.
     #[cfg(feature = "fw-bench")]
     mod bench {
         use core::cell::RefCell;
 
         use critical_section::Mutex;
-        use sledid::{Sample, Status};
+        use sledid::control::scheduled::{RedesignJob, RedesignResult};
+        use sledid::servo::{Posted, SledServo};
 
-        use super::super::FIXTURE;
-        use super::fw_config::{self, Cursor, FIXTURE_SAMPLES, Run};
+        use super::super::fw_config::recording::Cursor;
+        use super::super::fw_config::{self, Command, DownFrame, Kind, Ticker};
 
-        /// The run `count_insns.py` measures (independent of the firmware's own).
-        static BENCH: Mutex<RefCell<Option<Run>>> = Mutex::new(RefCell::new(None));
-        /// The bench's read position in the recording.
-        static BENCH_CURSOR: Mutex<RefCell<Cursor>> = Mutex::new(RefCell::new(Cursor::new()));
+        /// A closed-loop run of the PIL's configuration on the twin (`fixtures/pil_trace.bin`:
+        /// r and y of every sample, the recording codec with u = 0).
+        static TRACE: &[u8] = include_bytes!("../../fixtures/pil_trace.bin");
 
-        /// `--init`: a fresh run for [`sledid_fw_bench_step`].
+        /// Redesign results kept by the init run, in the order of their jobs.
+        const RESULTS: usize = 32;
+
+        /// The measured run: the loop, its read position in the trace, the results, the next
+        /// result's index.
+        struct Bench {
+            ticker: Ticker<SledServo>,
+            cursor: Cursor,
+            results: [Option<RedesignResult>; RESULTS],
+            jobs: [Option<Posted<RedesignJob>>; RESULTS],
+            next: usize,
+        }
+
+        /// The run `count_insns.py` measures.
+        static BENCH: Mutex<RefCell<Option<Bench>>> = Mutex::new(RefCell::new(None));
+
+        /// The trace's next sample as a frame.
+        #[inline(always)]
+        fn next_frame(cursor: &mut Cursor) -> Option<DownFrame> {
+            let sample = cursor.next(TRACE)?;
+            Some(DownFrame {
+                command: Command::new(Kind::Sample),
+                r: sample.r,
+                y: sample.y,
+            })
+        }
+
+        /// `--init`: runs the trace once, redesigning every job at once (the host's rule), and
+        /// keeps the results; then a fresh run for the measured calls.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
-            let run = fw_config::config().ok().map(Run::from_config);
-            critical_section::with(|cs| BENCH.borrow(cs).replace(run));
-        }
-
-        /// Record `index`: the next one of the bench's cursor when the calls go in order (as
-        /// `count_insns.py --args i` makes them), else decoded from the start.
-        #[inline(never)]
-        fn bench_record(cursor: &mut Cursor, index: usize) -> Option<Sample> {
-            if cursor.index() != index {
-                *cursor = Cursor::new();
-                while cursor.index() < index {
-                    cursor.next(FIXTURE)?;
+            let Ok(config) = fw_config::config() else {
+                return;
+            };
+            let mut results = [None; RESULTS];
+            let mut jobs = [None; RESULTS];
+            let mut ticker = Ticker::new(config);
+            let mut cursor = Cursor::new();
+            let mut n = 0;
+            while let Some(frame) = next_frame(&mut cursor) {
+                ticker.step(&frame);
+                if let Some(posted) = ticker.take_job() {
+                    let design = config.redesign(&posted);
+                    ticker.deliver(posted.ticket, design);
+                    if let (Some(slot), Some(job)) = (results.get_mut(n), jobs.get_mut(n)) {
+                        *slot = Some(design);
+                        *job = Some(posted);
+                    }
+                    n += 1;
                 }
             }
-            cursor.next(FIXTURE)
+            let bench = Bench {
+                ticker: Ticker::new(config),
+                cursor: Cursor::new(),
+                results,
+                jobs,
+                next: 0,
+            };
+            critical_section::with(|cs| BENCH.borrow(cs).replace(Some(bench)));
         }
 
-        /// Runs `f` on the bench run and record `i mod FIXTURE_SAMPLES`, in a critical section (0 if the bench
-        /// run was not initialised).
+        /// Runs `f` on the bench run and the trace's next frame, in a critical section (0 once
+        /// the trace is exhausted or if the run was not initialised).
         #[inline(always)]
-        fn with_bench(i: u32, f: impl FnOnce(&mut Run, &Sample) -> u32) -> u32 {
+        fn with_bench(f: impl FnOnce(&mut Bench, &DownFrame) -> u32) -> u32 {
             critical_section::with(|cs| {
-                let index = i as usize % FIXTURE_SAMPLES;
-                let sample = bench_record(&mut BENCH_CURSOR.borrow_ref_mut(cs), index);
-                match (BENCH.borrow_ref_mut(cs).as_mut(), sample) {
-                    (Some(run), Some(sample)) => f(run, &sample),
+                let mut bench = BENCH.borrow_ref_mut(cs);
+                let Some(bench) = bench.as_mut() else {
+                    return 0;
+                };
+                let Some(frame) = next_frame(&mut bench.cursor) else {
+                    return 0;
+                };
+                f(bench, &frame)
+            })
+        }
+
+        /// One interrupt's work on the trace's next sample: the step behind the embedded-hal
+        /// boundary, the answer's bytes, and a posted job's result handed over (adopted at
+        /// k + L). Returns the answer's u.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_tick(_i: u32) -> u32 {
+            with_bench(|b, frame| {
+                let up = b.ticker.step(frame);
+                if let Some(posted) = b.ticker.take_job() {
+                    if let Some(Some(design)) = b.results.get(b.next) {
+                        b.ticker.deliver(posted.ticket, *design);
+                    }
+                    b.next += 1;
+                }
+                core::hint::black_box(&up.to_bytes());
+                up.u_raw as u32
+            })
+        }
+
+        /// The scaffolding of [`sledid_fw_bench_tick`] without the step, to subtract.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_overhead(_i: u32) -> u32 {
+            with_bench(|b, frame| {
+                core::hint::black_box(&b.ticker);
+                frame.y.raw() as u32
+            })
+        }
+
+        /// The background's work: the redesign of job `i` (mod the jobs the trace posts), the
+        /// time the hand-over latency L must cover. Returns the outcome's discriminant.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_redesign(i: u32) -> u32 {
+            critical_section::with(|cs| {
+                let bench = BENCH.borrow_ref(cs);
+                let Some(b) = bench.as_ref() else {
+                    return 0;
+                };
+                let n = b.jobs.iter().take_while(|j| j.is_some()).count().max(1);
+                match b.jobs.get(i as usize % n) {
+                    Some(Some(job)) => {
+                        let design = b.ticker.config().redesign(core::hint::black_box(job));
+                        core::hint::black_box(&design);
+                        1
+                    }
                     _ => 0,
                 }
             })
         }
 
-        /// One sample as the interrupt does it: record `i mod FIXTURE_SAMPLES` through the loop
-        /// step and the checksum. Returns the drive's raw bits mixed with the status bits.
-        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-        #[unsafe(no_mangle)]
-        pub(super) extern "C" fn sledid_fw_bench_step(i: u32) -> u32 {
-            with_bench(i, |run, sample| {
-                let out = run.step(sample);
-                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
-            })
-        }
-
-        /// The full loop step alone ([`fw_config::loop_step`]: controller, supervisor, velocity
-        /// identifier; no checksum) on record `i mod FIXTURE_SAMPLES`.
-        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-        #[unsafe(no_mangle)]
-        pub(super) extern "C" fn sledid_fw_bench_loop(i: u32) -> u32 {
-            with_bench(i, |run, sample| {
-                let out = fw_config::loop_step(&run.config, &mut run.state, sample);
-                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
-            })
-        }
-
-        /// The full loop step in the settle band: the drive of
-        /// record `i mod FIXTURE_SAMPLES`, a still reference r = 300 quanta and a measurement
-        /// within ±2 quanta of it (`y = r + (7i mod 5) − 2`), so the controller settles or holds.
-        /// Its outputs mean nothing.
-        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-        #[unsafe(no_mangle)]
-        pub(super) extern "C" fn sledid_fw_bench_settle(i: u32) -> u32 {
-            with_bench(i, |run, sample| {
-                let r = sledid::PositionI48F16::from_counts(300);
-                let offset = i64::from(i.wrapping_mul(7) % 5) - 2;
-                let y = sledid::PositionI48F16::from_raw(r.raw() + (offset << 16));
-                let sample = Sample { r, y, u: sample.u };
-                let out = fw_config::loop_step(&run.config, &mut run.state, &sample);
-                (out.u.raw() as u32) ^ u32::from(out.identifier.status.bits())
-            })
-        }
-
-        /// The scaffolding of the bench exports without the step, to subtract.
-        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
-        #[unsafe(no_mangle)]
-        pub(super) extern "C" fn sledid_fw_bench_overhead(i: u32) -> u32 {
-            with_bench(i, |run, sample| {
-                core::hint::black_box(run);
-                u32::from(sample.y.raw() as u16 & Status::UPDATED.bits())
-            })
-        }
-
         /// The `count_insns.py` entry points, referenced from `main` so that they stay in the image.
-        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 4]) = (
+        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 3]) = (
             sledid_fw_bench_init,
             [
-                sledid_fw_bench_step,
-                sledid_fw_bench_loop,
-                sledid_fw_bench_settle,
+                sledid_fw_bench_tick,
                 sledid_fw_bench_overhead,
+                sledid_fw_bench_redesign,
             ],
         );
     }
 }
 
-/// Host build: prints the configuration and the host replay's result line (the line the firmware
-/// must print under QEMU).
+/// Host build: prints the configuration the committed words decode to.
 #[cfg(not(target_os = "none"))]
 fn main() {
-    use fw_config::{FIXTURE_SAMPLES, QUANTUM_M, RESULT_PREFIX, SAMPLE_PERIOD_NS, U_FULL_SCALE_V};
-    println!("sledid-fw (host build): {:#?}", fw_config::design());
-    // What the firmware decodes instead of building the design from f64.
-    let words = fw_config::LOOP_WORDS.len();
-    if fw_config::config() == fw_config::design().build() {
-        println!(
-            "configuration words (src/bin/firmware/loop_words.rs): {words}, equal to the design"
-        );
-    } else {
-        eprintln!(
-            "sledid-fw: the configuration words ({words}) are stale: regenerate them \
-             (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words)"
-        );
-        std::process::exit(1);
-    }
-    println!(
-        "recording: {FIXTURE_SAMPLES} EMPS samples, quantum {QUANTUM_M} m, u full scale {U_FULL_SCALE_V} V; \
-         SysTick period {SAMPLE_PERIOD_NS} ns"
-    );
-    let summary = match fw_config::replay(FIXTURE) {
-        Ok(summary) => summary,
+    use fw_config::{PART_M0PLUS, PART_M4F, SAMPLE_PERIOD_NS};
+    match fw_config::config() {
+        Ok(config) => println!(
+            "sledid-fw (host build): configuration words (src/bin/firmware/loop_words.rs, {} words) \
+             decode to:\n{config:#?}",
+            fw_config::LOOP_WORDS.len()
+        ),
         Err(e) => {
-            eprintln!("sledid-fw: the design does not build: {e}");
+            eprintln!(
+                "sledid-fw: the configuration words do not decode: {e}; regenerate them \
+                 (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words)"
+            );
             std::process::exit(1);
         }
-    };
-    println!("{RESULT_PREFIX} {summary}");
-    println!(
-        "Firmware under QEMU: cargo run --profile firmware --target thumbv7em-none-eabihf --bin sledid-fw \
-         | defmt-print -e target/thumbv7em-none-eabihf/firmware/sledid-fw"
-    );
+    }
+    for part in [PART_M4F, PART_M0PLUS] {
+        println!(
+            "{}: SysTick reload {} for {SAMPLE_PERIOD_NS} ns",
+            part.name,
+            part.syst_reload()
+        );
+    }
+    println!("Firmware in the loop under QEMU: cargo xtask pil");
 }

@@ -244,11 +244,15 @@ impl ModelGains {
             self.obs_b,
             self.obs_l,
         ];
-        if all.iter().all(|g| g.is_valid()) {
-            self.seek.validate()
-        } else {
-            Err(ConfigError::InitialModel(f64::NAN))
+        if !all.iter().all(|g| g.is_valid()) {
+            return Err(ConfigError::InitialModel(f64::NAN));
         }
+        // The observer's gain l is a fraction of the innovation, in [0, 1].
+        let l = self.obs_l.to_f64();
+        if !(0.0..=1.0).contains(&l) {
+            return Err(ConfigError::InitialModel(l));
+        }
+        self.seek.validate()
     }
 
     /// Every gain zero (no model: the baseline runs).

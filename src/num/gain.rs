@@ -120,10 +120,11 @@ impl Gain {
         })
     }
 
-    /// The value (exact).
+    /// The value (exact for a valid gain; an invalid shift ≥ 64 reads as 0, never a panic).
     #[allow(clippy::float_arithmetic)] // diagnostics, not the per-sample path
     pub fn to_f64(self) -> f64 {
-        f64::from(self.m) / 65_536.0 / (1u64 << self.s) as f64
+        1u64.checked_shl(self.s)
+            .map_or(0.0, |d| f64::from(self.m) / 65_536.0 / d as f64)
     }
 
     /// A quantised gain as [`Self::from_f64`] makes them: `s ≤ 62`, `m ≠ i32::MIN` (so |m| < 2³¹).

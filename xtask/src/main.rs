@@ -4,13 +4,19 @@
 //!   clippy, a nightly toolchain for cargo-fuzz, `qemu-system-arm`, `defmt-print`); `test` runs it
 //!   first, so the README's test command is all a newcomer runs.
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
-//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, every host test (overflow checks on), the
-//!   library's docs with warnings denied, and a short fuzz run of every target.
+//!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, every host test (overflow checks on; the
+//!   firmware's PIL runs under QEMU among them), the board images (`boards/*`: formatting and
+//!   clippy, which builds them), the library's docs with warnings denied, and a short fuzz run of
+//!   every target.
 //! - `fmt`: format the workspace.
 //! - `fuzz [RUNS]`: every cargo-fuzz target for RUNS executions (default 10⁷) on its committed corpus.
+//! - `pil [ARGS]`: the firmware under QEMU in the loop with the sled twin on both cores, checked
+//!   against the host (`cargo run --release -p sledid-host -- pil ARGS`, e.g. `--seeks 50`).
 //! - `cost`: build the bench image for Cortex-M4F and M0+ and count instructions / estimate cycles
 //!   per call of every `bench_*` entry point with `../shared/tools/count_insns.py` (needs Python with
-//!   `unicorn==2.1.4 capstone==5.0.9 pyelftools==0.33`), printing the table for BENCHMARKS.md.
+//!   `unicorn==2.1.4 capstone==5.0.9 pyelftools==0.33`), printing the table for BENCHMARKS.md;
+//!   then the firmware's interrupt over the PIL trace, its background's redesign and the
+//!   shipped images' flash and RAM (`cost firmware` for only that part).
 
 use std::process::{Command, ExitCode};
 
@@ -18,6 +24,23 @@ const THUMB_TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv6m-none-eabi"]
 
 fn cargo(args: &[&str]) -> bool {
     cargo_env(args, &[])
+}
+
+/// The board images (`boards/*`): each its own workspace, built from its own directory so that
+/// its `.cargo/config.toml` (target, probe-rs runner) applies.
+const BOARDS: [&str; 1] = ["boards/stm32f411"];
+
+/// `cargo args…` in `dir`.
+fn cargo_in(dir: &str, args: &[&str]) -> bool {
+    println!("\n==> (cd {dir} && cargo {})", args.join(" "));
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    match Command::new(cargo).current_dir(dir).args(args).status() {
+        Ok(s) => s.success(),
+        Err(e) => {
+            eprintln!("xtask: cannot run cargo in {dir}: {e}");
+            false
+        }
+    }
 }
 
 /// `cargo args…` with extra environment variables.
@@ -195,6 +218,11 @@ fn test() -> bool {
     }
     steps.push(vec!["test", "--workspace"]);
     steps.iter().all(|s| cargo(s))
+        // The board images build (they cannot run here): formatting and clippy, which builds them.
+        && BOARDS.iter().all(|b| {
+            cargo_in(b, &["fmt", "--check"])
+                && cargo_in(b, &["clippy", "--release", "--", "-D", "warnings"])
+        })
         // The library's docs: every intra-doc link resolves, nothing public links a private item.
         && cargo_env(
             &["doc", "--no-deps", "--lib", "-p", "sledid"],
@@ -272,9 +300,138 @@ const BENCH_FNS: [&str; 15] = [
     "bench_loop_step",
 ];
 
+/// The `count_insns.py` script.
+fn count_insns_tool() -> String {
+    std::env::var("COUNT_INSNS").unwrap_or_else(|_| "../shared/tools/count_insns.py".into())
+}
+
+/// The lines of `count_insns.py`'s report that start with `key`, split in words.
+fn report_field(text: &str, key: &str, col: usize) -> String {
+    text.lines()
+        .find(|l| l.trim_start().starts_with(key))
+        .and_then(|l| l.split_whitespace().nth(col).map(str::to_owned))
+        .unwrap_or_else(|| "?".into())
+}
+
+/// Records of the PIL trace (`fixtures/pil_trace.bin`, 3 seeks of the twin).
+const TRACE_SAMPLES: &str = "2172";
+
+/// The firmware's cost: the interrupt's body over the PIL trace (seeks, settling, holds and the
+/// hand-overs, every call measured: mean and worst), the scaffolding to subtract, the
+/// background's redesign; then flash and RAM of the shipped images.
+fn cost_firmware() -> bool {
+    let tool = count_insns_tool();
+    let dir = "target/fwbench";
+    let mut rows = Vec::new();
+    for (target, arch) in [
+        ("thumbv7em-none-eabihf", "m4f"),
+        ("thumbv6m-none-eabi", "m0plus"),
+    ] {
+        if !cargo_env(
+            &[
+                "build",
+                "--profile",
+                "firmware",
+                "--features",
+                "fw-bench",
+                "--target",
+                target,
+                "--bin",
+                "sledid-fw",
+            ],
+            &[("CARGO_TARGET_DIR", dir)],
+        ) {
+            return false;
+        }
+        let elf = format!("{dir}/{target}/firmware/sledid-fw");
+        for (f, calls) in [
+            ("sledid_fw_bench_tick", TRACE_SAMPLES),
+            ("sledid_fw_bench_overhead", TRACE_SAMPLES),
+            ("sledid_fw_bench_redesign", "8"),
+        ] {
+            println!("\n==> python3 {tool} {elf} {f} --arch {arch} --calls {calls}");
+            let out = Command::new("python3")
+                .args([
+                    &tool,
+                    &elf,
+                    f,
+                    "--arch",
+                    arch,
+                    "--init",
+                    "sledid_fw_bench_init",
+                    "--calls",
+                    calls,
+                    "--args",
+                    "i",
+                ])
+                .output();
+            let Ok(out) = out else {
+                eprintln!("xtask: cannot run python3 {tool}");
+                return false;
+            };
+            let text = String::from_utf8_lossy(&out.stdout);
+            if !out.status.success() {
+                eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+                return false;
+            }
+            print!("{text}");
+            rows.push(format!(
+                "| {arch} | {f} | {} / {} | {} / {} | {} |",
+                report_field(&text, "instructions", 2),
+                report_field(&text, "instructions", 6),
+                report_field(&text, "est. cycles  ", 3),
+                report_field(&text, "est. cycles  ", 7),
+                report_field(&text, "stack used", 5)
+            ));
+        }
+    }
+    println!(
+        "\n| core | function | instructions mean / max | est. cycles mean / max | stack bytes |"
+    );
+    println!("|---|---|---|---|---|");
+    for r in rows {
+        println!("{r}");
+    }
+    // The shipped images (no bench exports): flash = vector table + text + rodata + data.
+    if !cargo_env(
+        &[
+            "build",
+            "--profile",
+            "firmware",
+            "-p",
+            "sledid",
+            "--bin",
+            "sledid-fw",
+            "--target",
+            THUMB_TARGETS[0],
+            "--target",
+            THUMB_TARGETS[1],
+        ],
+        &[("CARGO_TARGET_DIR", "target/fw")],
+    ) {
+        return false;
+    }
+    println!("\n| image | vector + text + rodata + data (flash) | data + bss |");
+    println!("|---|---|---|");
+    for t in THUMB_TARGETS {
+        let elf = format!("target/fw/{t}/firmware/sledid-fw");
+        let text = output("llvm-size", &["-A", &elf]);
+        let size = |name: &str| -> u64 {
+            text.lines()
+                .find(|l| l.split_whitespace().next() == Some(name))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0)
+        };
+        let flash = size(".vector_table") + size(".text") + size(".rodata") + size(".data");
+        let ram = size(".data") + size(".bss") + size(".uninit");
+        println!("| {t} | {flash} B | {ram} B (+ the painted stack: `cargo xtask pil`) |");
+    }
+    true
+}
+
 fn cost() -> bool {
-    let tool =
-        std::env::var("COUNT_INSNS").unwrap_or_else(|_| "../shared/tools/count_insns.py".into());
+    let tool = count_insns_tool();
     let mut rows = Vec::new();
     for (target, arch) in [
         ("thumbv7em-none-eabihf", "m4f"),
@@ -337,7 +494,7 @@ fn cost() -> bool {
     for r in rows {
         println!("{r}");
     }
-    true
+    cost_firmware()
 }
 
 fn main() -> ExitCode {
@@ -345,8 +502,15 @@ fn main() -> ExitCode {
     let ok = match task.as_str() {
         "test" => test(),
         "setup" => setup(),
-        "fmt" => cargo(&["fmt", "--all"]),
+        "fmt" => cargo(&["fmt", "--all"]) && BOARDS.iter().all(|b| cargo_in(b, &["fmt"])),
+        "cost" if std::env::args().nth(2).as_deref() == Some("firmware") => cost_firmware(),
         "cost" => cost(),
+        "pil" => {
+            let rest: Vec<String> = std::env::args().skip(2).collect();
+            let mut args = vec!["run", "--release", "-p", "sledid-host", "--", "pil"];
+            args.extend(rest.iter().map(String::as_str));
+            cargo(&args)
+        }
         "fuzz" => fuzz(
             std::env::args()
                 .nth(2)
@@ -354,7 +518,7 @@ fn main() -> ExitCode {
                 .unwrap_or(10_000_000),
         ),
         _ => {
-            eprintln!("usage: cargo xtask <setup|test|fmt|cost|fuzz [RUNS]>");
+            eprintln!("usage: cargo xtask <setup|test|fmt|pil [ARGS]|cost [firmware]|fuzz [RUNS]>");
             false
         }
     };

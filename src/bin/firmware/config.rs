@@ -1,159 +1,117 @@
-//! The one definition the firmware (`src/bin/firmware.rs`) and its host replay
-//! (`host-tests/tests/firmware_qemu.rs`) share, so they cannot drift: the loop design (controller,
-//! identifiers), the layout of the embedded recording (`fixtures/emps_excerpt.bin`), the
-//! per-sample run with its output checksum, the redesign rule, and the result line the firmware
-//! prints.
+//! The one definition the firmware (`src/bin/firmware.rs`) and the host (`host-tests/src/pil`,
+//! `host-tests/tests/firmware_qemu.rs`) share, so that they cannot drift: the parts the images are
+//! built for, the configuration words, the processor-in-the-loop (PIL) link's frames, the
+//! interrupt's body ([`Ticker`]) and the result line.
 //!
-//! Both include this file with `#[path = …] mod fw_config;` (it is not a library module: it is
-//! the firmware's configuration, not part of the identification library). It lives in a
-//! sub-directory of `src/bin` so that cargo does not take it for a binary of its own.
+//! Both include this file with `#[path = …] mod fw_config;` (it is the firmware's, not part of the
+//! identification library). It lives in a sub-directory of `src/bin` so that cargo does not take
+//! it for a binary of its own.
 //!
-//! # The step: the whole loop in shadow mode
-//! Each record goes through [`sledid::servo::SledServo::step_shadow`]`(r, y, u_recorded)`:
-//! the gain-scheduled controller (with its supervisor) computes its drive beside the rig's own
-//! controller (returned and checksummed, not applied: QEMU has no plant), and its ARX(1,1)
-//! velocity identifier learns from the recorded drive, the one that explains y. This is the
-//! servo's whole step (controller + ARX estimator + supervisor); the paper's Wiener model is not
-//! in the interrupt (nothing in the loop reads it: `sledid::servo`).
+//! # The loop, per sample period (processor in the loop)
+//! ```text
+//! host → target   DownFrame { command, r(k), y(k) }       r, y raw I48F16 (quanta × 2¹⁶)
+//! target          Ticker::step: the servo's step behind sledid::servo::hal::ControlLoop
+//!                 (position in: FrameSensor; drive out: PwmDirection over embedded-hal 1.0)
+//! target → host   UpFrame { k, u(k), flags(k), duty, direction }
+//! host            the twin's sled advances one period under u(k)
+//! ```
+//! The host runs the same [`Ticker`] on the same configuration words beside the target and
+//! compares every [`UpFrame`] (`host-tests/src/pil`).
 //!
-//! The firmware used to run an EMPS ARX(2,2) identifier on increments; it is folded into the
-//! loop, not kept beside it: the loop's ARX(1,1) velocity identifier is the ARX estimator of the
-//! budget line, and a second ARX instance (RLS at N = 4, a third monomorphised kernel of ≈ 5 KB)
-//! would add flash to an image already above the 32 KiB budget and ≈ 4,500 cycles per sample on
-//! M4F to a step already above its cycle budget (`BENCHMARKS.md`).
+//! # Redesign hand-over (L = [`SledServo::handover_latency`], from the words)
+//! A redesign requested by sample k is posted as a job; the firmware's main loop (the
+//! background) computes it and hands the result to the interrupt, which adopts it at sample
+//! k + L ([`sledid::servo::handover`]). A result not delivered by then is dropped: the old gains
+//! stay and the step flags `HANDOVER_MISSED`. The host's reference delivers every job at once
+//! (or, for a job the host told the target to hold back by [`Command::delay`] ≥ L periods, not
+//! at all), so the two agree exactly whenever the target's background meets L.
 //!
-//! # Redesign rule (deterministic)
-//! The slow-rate gain redesign (f32) is not in the interrupt, and the interrupt never waits for
-//! it: a redesign requested by sample k is posted as a job ([`sledid::servo::handover`]), the
-//! main loop computes it, and the step of sample k + L adopts it — or, not delivered in time,
-//! keeps the old gains and flags `HANDOVER_MISSED`. [`replay`], the host's run of the same rule,
-//! computes every job between two samples, so the two agree whenever the firmware meets L.
-//!
-//! # Units and constants (EMPS rig, `shared/data` README)
-//! Positions in encoder quanta ([`QUANTUM_M`]), u as a fraction of [`U_FULL_SCALE_V`], the
-//! recording's sample period [`EMPS_TS_S`] = 1 ms (the controller's and the models' time unit;
-//! the firmware replays one record per sled period, [`SAMPLE_PERIOD_NS`]). Baseline: the rig's
-//! cascade PID, `PidDesign::position_velocity_cascade(1 ms, 10 V, kp 160.18 1/s, kv 243.45 V/(m/s)
-//! × 5·10⁻⁸ m)`. See [`design`] for the priors.
-//!
-//! # Fixture layout
-//! [`FIXTURE_SAMPLES`] records, delta-encoded with variable length ([`recording`]: three zigzag
-//! varints per record, Δ²y in whole quanta, Δ³r in raw [`sledid::PositionI48F16`], Δ²u in raw
-//! [`sledid::SignalI16F16`]), no header. [`recording::encode`] refuses a sample that does not fit (y off
-//! the grid or beyond `i32` quanta, r beyond ±2⁴⁷ raw, \|u\| ≥ 5 V), so [`recording::Cursor`]
-//! returns exactly the samples that were encoded.
-//!
-//! # Checksum
-//! FNV-1a 64 (offset basis `0xcbf29ce484222325`, prime `0x100000001b3`) over, for every sample in
-//! order, the little-endian bytes of the [`SledServoOutput`] fields:
-//!
-//! | bytes | field |
-//! |---|---|
-//! | 4 | u, the controller's drive (`i32` raw I16F16) |
-//! | 1 | region (`Region::index`: 0 seek, 1 settle, 2 hold) |
-//! | 2 | controller flags (`ControlFlags` bits, `u16`) |
-//! | 4 × 4 | velocity identifier: y, u, ŷ, ε (`i32` raw each) |
-//! | 2 × 4 | velocity identifier θ = [a₁, b₁] (`i32` raw I12F20) |
-//! | 2 | velocity identifier status bits (`u16`) |
-//!
-//! 33 bytes per sample.
+//! # Up frame
+//! [`UpFrame::to_bytes`] (16 bytes, little-endian): k (`u32`), u (`i32`, raw I16F16 full
+//! scale), the flags word ([`flags_word`]: controller flags in bits 0–15, servo flags in 16–23,
+//! region index in 24–31), the PWM duty (`u16`), the direction pin (`u8`, 1 = high, u ≥ 0) and
+//! a zero byte. The host compares every one; the interrupt keeps no checksum of them (it would
+//! cost ≈ 300 cycles a sample for a check the host already makes).
 
 use core::borrow::Borrow;
+use core::convert::Infallible;
 use core::fmt;
 
+use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
+use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
+use sledid::control::Redesign;
 use sledid::control::scheduled::{RedesignJob, RedesignResult};
-use sledid::control::{PidDesign, Redesign, ScheduledDesign};
 use sledid::error::ConfigError;
-use sledid::servo::{
-    Posted, ServoDesign, SledServo, SledServoOutput, SledServoState, Ticket, VELOCITY_N,
-};
+use sledid::servo::hal::{ControlLoop, DriveError, PositionSensor, PwmDirection};
+use sledid::servo::{Posted, ServoFlags, SledServo, SledServoOutput, SledServoState, Ticket};
+use sledid::{PositionI48F16, Status};
 
 include!("loop_words.rs");
 
 #[path = "recording.rs"]
+#[allow(dead_code)] // the bench image's and the host's
 pub mod recording;
 
-pub use recording::Cursor;
-use sledid::Sample;
-
-/// Parameters of the velocity identifier: ARX(1,1), θ = [a₁, b₁].
-pub const N: usize = VELOCITY_N;
-
-/// The sled's sample period (Ts = 0.455 ms), ns: the firmware's SysTick period. The EMPS excerpt
-/// was recorded at 1 ms; the firmware replays it one record per sled sample period.
+/// The sled's sample period (Ts = 0.455 ms), ns: the SysTick period the images program.
 pub const SAMPLE_PERIOD_NS: u32 = 455_000;
 
-/// The EMPS recording's (and its controller's) sample period, s.
-pub const EMPS_TS_S: f64 = 1e-3;
-
-/// EMPS position-loop gain kp, 1/s (`shared/data` README).
-pub const EMPS_KP_PER_S: f64 = 160.18;
-
-/// EMPS velocity-loop gain kv, V/(m/s) (`shared/data` README).
-pub const EMPS_KV_V_S_PER_M: f64 = 243.45;
-
-/// Sensor quantum of the EMPS encoder, m (one [`sledid::PositionI48F16`] unit).
-pub const QUANTUM_M: f64 = 5e-8;
-
-/// Full-scale drive, V (one [`sledid::SignalI16F16`] unit of u).
-pub const U_FULL_SCALE_V: f64 = 10.0;
-
-/// Records in the fixture: the first 640 rows of `DATA_EMPS.csv` (2,157 B delta-encoded; the
-/// image is above its 32 KiB flash budget with or without them, see `BENCHMARKS.md`).
-pub const FIXTURE_SAMPLES: usize = 640;
-
-/// What starts the firmware's result line (followed by a space and the [`Summary`]).
-pub const RESULT_PREFIX: &str = "sledid-fw result:";
-
-/// Prior velocity model (a, b) of the EMPS rig: the least-squares ARX(1,1) fit
-/// `Δy(k+1) = a·Δy(k) + b·u(k)` (Δy in quanta per 1 ms sample, u in full scale) over all 24,841
-/// rows of `DATA_EMPS.csv`: a = 0.99594, b = 69.363 (residual RMS 2.31 quanta per sample). The
-/// 640-row excerpt alone gives a = 0.99468, b = 70.50.
-pub const EMPS_VELOCITY_PRIOR: (f64, f64) = (0.995_943, 69.362_5);
-
-/// Largest velocity pole the supervisor accepts for EMPS. The default (0.98) is the sled's, at
-/// 0.455 ms; the EMPS rig's mechanical time constant is ≈ 0.25 s, a pole of 0.996 at 1 ms, so the
-/// default would refuse the rig's own model. 0.999 (τ = 1 s) still refuses an integrator.
-pub const EMPS_POLE_MAX: f64 = 0.999;
-
-/// The rig's controller as the baseline (and fallback) of the scheduled controller.
-pub fn baseline() -> PidDesign {
-    PidDesign::position_velocity_cascade(
-        EMPS_TS_S,
-        U_FULL_SCALE_V,
-        EMPS_KP_PER_S,
-        EMPS_KV_V_S_PER_M * QUANTUM_M,
-    )
+/// A microcontroller an image is built for: its core and clock set the SysTick reload.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// The part.
+    pub name: &'static str,
+    /// Core clock, Hz.
+    pub core_clock_hz: u32,
 }
 
-/// The whole loop the firmware runs:
-/// - controller: `ScheduledDesign::new(baseline())` (default regions, poles, supervisor limits
-///   except [`EMPS_POLE_MAX`]), prior [`EMPS_VELOCITY_PRIOR`], no input compensation to start
-///   with (the friction is identified and compensated after the first accepted redesign);
-/// - velocity identifier: ARX(1,1) with a Coulomb term on Δy against u (`DifferencedOutput`),
-///   θ₀ = [−a, b, 0] of the prior, λ = 0.995, P₀ = 10·I, dead zone ¼ quantum, trace(P) ≤ 100, outlier gate 40 quanta
-///   (16 in a row) — `sledid::servo::velocity_identifier`.
-pub fn design() -> ServoDesign {
-    let mut controller = ScheduledDesign::new(baseline());
-    controller.supervisor.pole_max = EMPS_POLE_MAX;
-    controller.prior_model = Some(EMPS_VELOCITY_PRIOR);
-
-    let velocity = sledid::servo::velocity_identifier(EMPS_VELOCITY_PRIOR, 0.0);
-
-    ServoDesign {
-        controller,
-        velocity,
-        options: sledid::servo::ServoOptions::default(),
-        safety: sledid::servo::SafetyDesign::default(),
+impl Part {
+    /// SysTick reload value for one sample period on the core clock (the counter runs reload + 1
+    /// cycles per period).
+    pub const fn syst_reload(self) -> u32 {
+        let cycles = self.core_clock_hz as u64 * SAMPLE_PERIOD_NS as u64 / 1_000_000_000;
+        assert!(cycles > 1 && cycles <= 1 << 24, "SysTick reload is 24 bits");
+        (cycles - 1) as u32
     }
 }
 
-/// The configuration the firmware runs: [`LOOP_WORDS`] (generated on the host from [`design`])
-/// decoded and checked by [`SledServo::from_words`], without the `f64` build of [`design`].
+/// The Cortex-M4F image (`thumbv7em-none-eabihf`): an STM32F411CE (the "Black Pill" board's
+/// part) run at 72 MHz, 32,760 cycles per period. The board image (`boards/stm32f411`) is the
+/// same part.
+#[allow(dead_code)] // each image uses its own
+pub const PART_M4F: Part = Part {
+    name: "STM32F411CE Cortex-M4F @ 72 MHz",
+    core_clock_hz: 72_000_000,
+};
+
+/// The Cortex-M0 image (`thumbv6m-none-eabi`): an ATSAMD21G18 (Cortex-M0+) at 48 MHz, 21,840
+/// cycles per period.
+#[allow(dead_code)] // each image uses its own
+pub const PART_M0PLUS: Part = Part {
+    name: "ATSAMD21G18 Cortex-M0+ @ 48 MHz",
+    core_clock_hz: 48_000_000,
+};
+
+/// The link's host → target FIFO, in QEMU's working directory (the firmware opens it through
+/// semihosting).
+pub const LINK_DOWN: &core::ffi::CStr = c"pil-down";
+/// The link's target → host FIFO.
+pub const LINK_UP: &core::ffi::CStr = c"pil-up";
+
+/// Full scale of the PIL drive's PWM channel: a 20 kHz PWM on a 72 MHz timer clock, as on the
+/// board image.
+pub const PWM_MAX_DUTY: u16 = 3_600;
+
+/// What starts the firmware's result line (followed by a space and the [`Summary`]).
+pub const RESULT_PREFIX: &str = "sledid-fw result:";
+/// What starts the firmware's timing line (key=value pairs, see `src/bin/firmware.rs`).
+pub const TIMING_PREFIX: &str = "sledid-fw timing:";
+
+/// The configuration the firmware runs: [`LOOP_WORDS`] (generated on the host) decoded and
+/// checked by [`SledServo::from_words`].
 ///
 /// # Errors
 /// The words' [`ConfigError`] (none for the committed words; the tests decode them).
-#[allow(dead_code)] // the firmware itself decodes into its static storage: `config_into`
+#[allow(dead_code)] // the firmware decodes into its static storage: `config_into`
 pub fn config() -> Result<SledServo, ConfigError> {
     SledServo::from_words(&LOOP_WORDS)
 }
@@ -163,231 +121,454 @@ pub fn config() -> Result<SledServo, ConfigError> {
 ///
 /// # Errors
 /// As [`config`].
-#[allow(dead_code)] // the firmware's; the host replays from `design`
+#[allow(dead_code)] // the firmware's; the host decodes with `config`
 pub fn config_into(slot: &mut Option<SledServo>) -> Result<(), ConfigError> {
     SledServo::from_words_into(&LOOP_WORDS, slot)
 }
 
-/// FNV-1a, 64 bits, over a byte stream.
+/// What a down frame asks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Fnv1a64(u64);
+pub enum Kind {
+    /// A sample: r(k) and y(k).
+    Sample,
+    /// A sample whose position could not be read: r(k) only (the step holds the last position).
+    Lost,
+    /// The run is over: the target stops stepping and reports.
+    End,
+}
 
-impl Fnv1a64 {
-    /// The FNV-1a 64 offset basis.
-    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
-    /// The FNV-1a 64 prime.
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
+/// The command word of a [`DownFrame`]: bits 0–1 the [`Kind`] (0 sample, 1 lost, 2 end), bit 2
+/// [`Command::stall`], bits 8–15 [`Command::delay`]; every other bit zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Command(u32);
 
-    /// The hash of nothing.
-    pub const fn new() -> Self {
-        Self(Self::OFFSET_BASIS)
+impl Command {
+    const KIND_MASK: u32 = 0b11;
+    const STALL: u32 = 1 << 2;
+    const DELAY_SHIFT: u32 = 8;
+    const KNOWN: u32 = Self::KIND_MASK | Self::STALL | (0xff << Self::DELAY_SHIFT);
+
+    /// A command of `kind`, no stall, no delay.
+    #[allow(dead_code)] // the host's (and the bench's)
+    pub const fn new(kind: Kind) -> Self {
+        Self(match kind {
+            Kind::Sample => 0,
+            Kind::Lost => 1,
+            Kind::End => 2,
+        })
     }
 
-    /// Folds `bytes` in.
-    pub fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = Self::mul_prime(self.0 ^ u64::from(b));
+    /// With [`Command::stall`] set.
+    #[allow(dead_code)] // the host's
+    #[must_use]
+    pub const fn with_stall(self) -> Self {
+        Self(self.0 | Self::STALL)
+    }
+
+    /// With [`Command::delay`] = `periods`.
+    #[allow(dead_code)] // the host's
+    #[must_use]
+    pub const fn with_delay(self, periods: u8) -> Self {
+        Self((self.0 & !(0xff << Self::DELAY_SHIFT)) | ((periods as u32) << Self::DELAY_SHIFT))
+    }
+
+    /// The kind; `None` for an unknown kind or a reserved bit set.
+    pub const fn kind(self) -> Option<Kind> {
+        if self.0 & !Self::KNOWN != 0 {
+            return None;
+        }
+        match self.0 & Self::KIND_MASK {
+            0 => Some(Kind::Sample),
+            1 => Some(Kind::Lost),
+            2 => Some(Kind::End),
+            _ => None,
         }
     }
 
-    /// `h · PRIME mod 2⁶⁴` with 32-bit multiplies only: PRIME = 2⁴⁰ + 0x1b3, and every partial
-    /// product of a 16-bit limb by 0x1b3 fits in 25 bits. Cortex-M0 has no 32×32→64 multiply, so
-    /// the plain `wrapping_mul` costs a `__aeabi_lmul` call per byte (≈ 60 cycles).
-    #[inline(always)]
-    fn mul_prime(h: u64) -> u64 {
-        const LOW: u32 = (Fnv1a64::PRIME & 0xffff_ffff) as u32;
-        const _: () = assert!(Fnv1a64::PRIME == (1 << 40) + LOW as u64 && LOW < 1 << 16);
-        let lo = h as u32;
-        let hi = (h >> 32) as u32;
-        let lo_lo = u64::from((lo & 0xffff) * LOW); // < 2^32: 16 × 9 bits
-        let lo_hi = u64::from((lo >> 16) * LOW) << 16; // < 2^48
-        let hi_part = u64::from(hi.wrapping_mul(LOW)) << 32; // only its low 32 bits survive
-        (h << 40)
-            .wrapping_add(hi_part)
-            .wrapping_add(lo_hi)
-            .wrapping_add(lo_lo)
+    /// Fault injection: the interrupt, after answering, spins until the next sample period has
+    /// begun (an overrun the target must count).
+    pub const fn stall(self) -> bool {
+        self.0 & Self::STALL != 0
     }
 
-    /// Folds in one step's outputs (see the module doc for the byte order).
-    pub fn write_output(&mut self, out: &SledServoOutput) {
-        self.write(&out.u.raw().to_le_bytes());
-        self.write(&[out.region.index()]);
-        self.write(&out.control.bits().to_le_bytes());
-        let v = &out.identifier;
-        for raw in [v.y.raw(), v.u.raw(), v.y_hat.raw(), v.eps.raw()] {
-            self.write(&raw.to_le_bytes());
-        }
-        for t in &v.theta {
-            self.write(&t.raw().to_le_bytes());
-        }
-        self.write(&v.status.bits().to_le_bytes());
+    /// Fault injection: a redesign job posted by this sample is handed back by the background
+    /// only after the interrupt has stepped this many more samples (0: at once). With
+    /// `delay ≥ L` the hand-over misses.
+    pub const fn delay(self) -> u8 {
+        (self.0 >> Self::DELAY_SHIFT) as u8
     }
 
-    /// The hash so far.
-    pub const fn value(self) -> u64 {
+    /// The raw word.
+    pub const fn bits(self) -> u32 {
         self.0
     }
 }
 
-impl Default for Fnv1a64 {
-    fn default() -> Self {
-        Self::new()
+/// Host → target, once per sample period: 20 bytes, little-endian (command `u32`, r `i64`, y
+/// `i64`, both raw I48F16).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DownFrame {
+    /// What to do.
+    pub command: Command,
+    /// The reference r(k).
+    pub r: PositionI48F16,
+    /// The measured position y(k) (ignored unless the kind is [`Kind::Sample`]).
+    pub y: PositionI48F16,
+}
+
+/// Bytes of a [`DownFrame`].
+pub const DOWN_FRAME_BYTES: usize = 20;
+/// Bytes of an [`UpFrame`].
+pub const UP_FRAME_BYTES: usize = 16;
+
+impl DownFrame {
+    /// The end of the run.
+    #[allow(dead_code)] // the host's
+    pub const END: Self = Self {
+        command: Command::new(Kind::End),
+        r: PositionI48F16::from_raw(0),
+        y: PositionI48F16::from_raw(0),
+    };
+
+    /// The frame's bytes.
+    #[allow(dead_code)] // the host's
+    pub fn to_bytes(self) -> [u8; DOWN_FRAME_BYTES] {
+        let [c0, c1, c2, c3] = self.command.bits().to_le_bytes();
+        let [r0, r1, r2, r3, r4, r5, r6, r7] = self.r.raw().to_le_bytes();
+        let [y0, y1, y2, y3, y4, y5, y6, y7] = self.y.raw().to_le_bytes();
+        [
+            c0, c1, c2, c3, r0, r1, r2, r3, r4, r5, r6, r7, y0, y1, y2, y3, y4, y5, y6, y7,
+        ]
+    }
+
+    /// The frame of `bytes`; `None` when its command is not a [`Command`].
+    pub fn from_bytes(b: &[u8; DOWN_FRAME_BYTES]) -> Option<Self> {
+        let [
+            c0,
+            c1,
+            c2,
+            c3,
+            r0,
+            r1,
+            r2,
+            r3,
+            r4,
+            r5,
+            r6,
+            r7,
+            y0,
+            y1,
+            y2,
+            y3,
+            y4,
+            y5,
+            y6,
+            y7,
+        ] = *b;
+        let command = Command(u32::from_le_bytes([c0, c1, c2, c3]));
+        command.kind()?;
+        Some(Self {
+            command,
+            r: PositionI48F16::from_raw(i64::from_le_bytes([r0, r1, r2, r3, r4, r5, r6, r7])),
+            y: PositionI48F16::from_raw(i64::from_le_bytes([y0, y1, y2, y3, y4, y5, y6, y7])),
+        })
     }
 }
 
-/// One replay of the loop: configuration, state, and the checksum of everything it produced.
-/// The firmware's SysTick handler and the host replay both step this, one sample at a time.
+/// Target → host, once per sample period (layout in the module doc).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UpFrame {
+    /// The sample index the step ran as.
+    pub k: u32,
+    /// The drive u(k), raw I16F16 (fraction of full scale).
+    pub u_raw: i32,
+    /// [`flags_word`] of the step's output.
+    pub flags: u32,
+    /// The duty the PWM channel was set to (of [`PWM_MAX_DUTY`]).
+    pub duty: u16,
+    /// The direction pin (high: u ≥ 0).
+    pub forward: bool,
+}
+
+impl UpFrame {
+    /// The frame's bytes.
+    pub fn to_bytes(self) -> [u8; UP_FRAME_BYTES] {
+        let [k0, k1, k2, k3] = self.k.to_le_bytes();
+        let [u0, u1, u2, u3] = self.u_raw.to_le_bytes();
+        let [f0, f1, f2, f3] = self.flags.to_le_bytes();
+        let [d0, d1] = self.duty.to_le_bytes();
+        [
+            k0,
+            k1,
+            k2,
+            k3,
+            u0,
+            u1,
+            u2,
+            u3,
+            f0,
+            f1,
+            f2,
+            f3,
+            d0,
+            d1,
+            u8::from(self.forward),
+            0,
+        ]
+    }
+
+    /// The frame of `bytes` (the host's side).
+    #[allow(dead_code)] // the host's
+    pub fn from_bytes(b: &[u8; UP_FRAME_BYTES]) -> Self {
+        let [
+            k0,
+            k1,
+            k2,
+            k3,
+            u0,
+            u1,
+            u2,
+            u3,
+            f0,
+            f1,
+            f2,
+            f3,
+            d0,
+            d1,
+            dir,
+            _,
+        ] = *b;
+        Self {
+            k: u32::from_le_bytes([k0, k1, k2, k3]),
+            u_raw: i32::from_le_bytes([u0, u1, u2, u3]),
+            flags: u32::from_le_bytes([f0, f1, f2, f3]),
+            duty: u16::from_le_bytes([d0, d1]),
+            forward: dir != 0,
+        }
+    }
+
+    /// The servo flags of [`Self::flags`].
+    #[allow(dead_code)] // the host's
+    pub fn servo_flags(&self) -> ServoFlags {
+        ServoFlags::from_bits((self.flags >> 16) as u8)
+    }
+
+    /// The region index of [`Self::flags`] (0 seek, 1 settle, 2 hold).
+    #[allow(dead_code)] // the host's
+    pub fn region_index(&self) -> u8 {
+        (self.flags >> 24) as u8
+    }
+}
+
+/// The flags word of one output: controller flags (bits 0–15), servo flags (16–23), region
+/// index (24–31).
+pub fn flags_word(out: &SledServoOutput) -> u32 {
+    u32::from(out.control.bits())
+        | u32::from(out.servo.bits()) << 16
+        | u32::from(out.region.index()) << 24
+}
+
+/// The PIL's position input: the y of the frame being stepped (`None`: lost).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameSensor {
+    /// The reading of this sample, whole quanta.
+    pub counts: Option<i64>,
+}
+
+/// A reading the frame did not carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoReading;
+
+impl PositionSensor for FrameSensor {
+    type Error = NoReading;
+    fn read_counts(&mut self) -> Result<i64, NoReading> {
+        self.counts.ok_or(NoReading)
+    }
+}
+
+/// The PIL's PWM channel: keeps the duty it was set to (a board's timer compare register).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PilPwm {
+    /// The duty set last.
+    pub duty: u16,
+}
+
+impl PwmErrorType for PilPwm {
+    type Error = Infallible;
+}
+
+impl SetDutyCycle for PilPwm {
+    fn max_duty_cycle(&self) -> u16 {
+        PWM_MAX_DUTY
+    }
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        self.duty = duty;
+        Ok(())
+    }
+}
+
+/// The PIL's direction pin: keeps its level (a board's GPIO output register).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PilPin {
+    /// The level set last.
+    pub high: bool,
+}
+
+impl PinErrorType for PilPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for PilPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.high = false;
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.high = true;
+        Ok(())
+    }
+}
+
+/// The interrupt's body, one call per sample period: the frame's position through the servo's
+/// step behind [`ControlLoop`] (position in, drive out over embedded-hal 1.0), the answer, and
+/// the run's totals. The firmware's SysTick handler and the host's reference run step the same
+/// code on the same words.
 ///
-/// `C` holds the configuration: the host owns it (`SledServo`, the default); the firmware
-/// borrows it from its own static storage (`&'static mut SledServo`), so that the run and the
-/// configuration are each built in place, one after the other, not in one stack frame.
-#[derive(Clone, Debug)]
-pub struct Run<C = SledServo> {
-    /// The validated configuration of [`design`] (its controller gains swapped by redesigns).
-    pub(crate) config: C,
-    /// The loop's state.
-    pub(crate) state: SledServoState,
-    checksum: Fnv1a64,
-    samples: u32,
-    updates: u32,
-    applied: u16,
-    rejected: u16,
-    skipped: u16,
+/// `C` holds the configuration: the host owns it (`SledServo`); the firmware borrows it from its
+/// own static storage, so that the configuration and the ticker are each built in place.
+pub struct Ticker<C> {
+    config: C,
+    state: SledServoState,
+    control: ControlLoop<FrameSensor, PwmDirection<PilPwm, PilPin>>,
+    totals: Summary,
 }
 
-impl Run {
-    /// A fresh run of [`design`], built from `f64` (the host's replay: the firmware decodes
-    /// [`config`] instead, so the QEMU test also checks that the words give the design).
-    ///
-    /// # Errors
-    /// The design's [`ConfigError`] (none for the committed design; the tests build it).
-    #[allow(dead_code)] // the firmware starts from `config()`
-    pub fn new() -> Result<Self, ConfigError> {
-        Ok(Self::from_config(design().build()?))
-    }
-}
-
-impl<C: Borrow<SledServo>> Run<C> {
+impl<C: Borrow<SledServo>> Ticker<C> {
     /// A fresh run of a built configuration (infallible, so that the firmware can construct it
     /// in place).
     #[inline(always)]
-    pub fn from_config(config: C) -> Self {
+    pub fn new(config: C) -> Self {
         Self {
             state: config.borrow().new_state(),
             config,
-            checksum: Fnv1a64::new(),
-            samples: 0,
-            updates: 0,
-            applied: 0,
-            rejected: 0,
-            skipped: 0,
+            control: ControlLoop::new(
+                FrameSensor::default(),
+                PwmDirection {
+                    pwm: PilPwm::default(),
+                    direction: PilPin::default(),
+                },
+            ),
+            totals: Summary::default(),
         }
     }
 
-    /// One sample through the loop in shadow mode, folded into the checksum. Never panics.
+    /// The configuration.
+    #[allow(dead_code)] // the host's (and the bench's)
+    pub fn config(&self) -> &SledServo {
+        self.config.borrow()
+    }
+
+    /// The servo's state.
+    #[allow(dead_code)] // the host's
+    pub fn state(&self) -> &SledServoState {
+        &self.state
+    }
+
+    /// One sample period on `frame` (of kind [`Kind::Sample`] or [`Kind::Lost`]): the answer.
+    /// A redesign the step asks for waits in the state for [`Self::take_job`]. Never panics.
     #[inline(never)]
-    pub fn step(&mut self, sample: &Sample) -> SledServoOutput {
-        let out = loop_step(self.config.borrow(), &mut self.state, sample);
-        self.checksum.write_output(&out);
-        self.samples = self.samples.wrapping_add(1);
-        if out.identifier.status.contains(sledid::Status::UPDATED) {
-            self.updates = self.updates.wrapping_add(1);
+    pub fn step(&mut self, frame: &DownFrame) -> UpFrame {
+        let lost = frame.command.kind() != Some(Kind::Sample);
+        self.control.sensor.counts = (!lost).then_some(frame.y.raw() >> 16);
+        let k = self.state.sample_index();
+        let out = match self
+            .control
+            .tick(self.config.borrow(), &mut self.state, frame.r)
+        {
+            Ok(out) => out,
+            Err(DriveError::First(e) | DriveError::Second(e)) => match e {},
+        };
+        let drive = &self.control.drive;
+        let up = UpFrame {
+            k,
+            u_raw: out.u.raw(),
+            flags: flags_word(&out),
+            duty: drive.pwm.duty,
+            forward: drive.direction.high,
+        };
+        let t = &mut self.totals;
+        t.samples = t.samples.wrapping_add(1);
+        t.lost = t.lost.wrapping_add(u32::from(lost));
+        t.updates = t
+            .updates
+            .wrapping_add(u32::from(out.identifier.status.contains(Status::UPDATED)));
+        for (count, flag) in t.handover.iter_mut().zip([
+            ServoFlags::REDESIGN_POSTED,
+            ServoFlags::REDESIGN_ADOPTED,
+            ServoFlags::HANDOVER_MISSED,
+        ]) {
+            *count = count.wrapping_add(u32::from(out.servo.contains(flag)));
         }
-        out
+        up
     }
 
-    /// The background's side: the job a step posted, once.
+    /// The background's side: the redesign job a step posted, once.
     pub fn take_job(&mut self) -> Option<Posted<RedesignJob>> {
         self.state.take_job()
     }
 
-    /// The background's side: the finished redesign for a job (counted by outcome when the
-    /// hand-over accepts it).
+    /// The background's result for a job (counted by outcome when the hand-over accepts it:
+    /// false when its due sample has passed).
     pub fn deliver(&mut self, ticket: Ticket, design: RedesignResult) -> bool {
         let accepted = self.state.deliver(ticket, design);
         if accepted {
-            let count = match design.outcome {
-                Redesign::Applied(_) => &mut self.applied,
-                Redesign::Rejected(_) => &mut self.rejected,
-                Redesign::Skipped => &mut self.skipped,
+            let i = match design.outcome {
+                Redesign::Applied(_) => 0,
+                Redesign::Rejected(_) => 1,
+                Redesign::Skipped => 2,
             };
-            *count = count.wrapping_add(1);
+            if let Some(count) = self.totals.redesigns.get_mut(i) {
+                *count = count.wrapping_add(1);
+            }
         }
         accepted
     }
 
-    /// The host's background turn between two samples: the posted job, if any, redesigned and
-    /// delivered. Returns its outcome.
-    pub fn background(&mut self) -> Option<Redesign> {
-        let posted = self.take_job()?;
-        let design = self.config.borrow().redesign(&posted);
-        self.deliver(posted.ticket, design);
-        Some(design.outcome)
-    }
-
     /// What the run has produced so far.
     pub fn summary(&self) -> Summary {
-        let mut theta_raw = [0i32; N];
-        for (dst, t) in theta_raw
+        let mut s = self.totals;
+        for (dst, t) in s
+            .theta_raw
             .iter_mut()
             .zip(self.state.identifier().model().theta())
         {
             *dst = t.raw();
         }
-        Summary {
-            samples: self.samples,
-            updates: self.updates,
-            redesigns: [self.applied, self.rejected, self.skipped],
-            fallback: self.state.controller().fallback(),
-            checksum: self.checksum.value(),
-            theta_raw,
-        }
+        s
     }
 }
 
-/// The host's replay of a fixture under the [redesign rule](self#redesign-rule-deterministic):
-/// what the firmware must report.
-///
-/// # Errors
-/// The design's [`ConfigError`].
-#[allow(dead_code)] // the firmware steps the run from its interrupt instead
-pub fn replay(fixture: &[u8]) -> Result<Summary, ConfigError> {
-    let mut run = Run::new()?;
-    let mut cursor = Cursor::new();
-    while let Some(sample) = cursor.next(fixture) {
-        run.step(&sample);
-        run.background();
-    }
-    Ok(run.summary())
-}
+/// Parameters of the velocity identifier reported in the result line.
+pub const THETA_N: usize = sledid::servo::VELOCITY_N;
 
-/// The per-sample step alone ([`SledServo::step_shadow`] with the recorded drive), kept out of
-/// line so that it exists once in the image and `count_insns.py` can measure it apart from the
-/// checksum.
-#[inline(never)]
-pub fn loop_step(
-    config: &SledServo,
-    state: &mut SledServoState,
-    sample: &Sample,
-) -> SledServoOutput {
-    config.step_shadow(state, sample.r, sample.y, sample.u)
-}
-
-/// The outcome of a run: what the firmware prints and the host test compares, field by field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The outcome of a run: what the firmware prints and the host's reference must equal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Summary {
     /// Samples stepped.
     pub samples: u32,
+    /// Of which without a position ([`Kind::Lost`]).
+    pub lost: u32,
     /// Samples on which the velocity identifier updated θ and P.
     pub updates: u32,
-    /// Redesigns [applied, rejected, skipped].
-    pub redesigns: [u16; 3],
-    /// The baseline PID drives at the end (no accepted model).
-    pub fallback: bool,
-    /// FNV-1a 64 of every output (module doc).
-    pub checksum: u64,
-    /// Final velocity θ = [a₁, b₁], raw I12F20.
-    pub theta_raw: [i32; N],
+    /// Hand-overs: jobs posted, results adopted, hand-overs missed (servo flags).
+    pub handover: [u32; 3],
+    /// Results accepted by the hand-over: [applied, rejected, skipped].
+    pub redesigns: [u32; 3],
+    /// Handlers that ended after the next period had begun (the target's count; the host
+    /// expects one per overrun it asked for, [`Command::stall`]).
+    pub overruns: u32,
+    /// Final velocity θ, raw I12F20.
+    pub theta_raw: [i32; THETA_N],
 }
 
 /// `[a, b, c]`: a slice as defmt prints it.
@@ -403,21 +584,19 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 }
 
 impl fmt::Display for Summary {
-    /// `samples=… updates=… redesigns=[applied, rejected, skipped] fallback=…
-    /// checksum=0x…(16 hex digits) theta=[a1, b1]` (raw I12F20), exactly the firmware's defmt
+    /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
+    /// rejected, skipped] overruns=… theta=[…]` (raw I12F20), exactly the firmware's defmt
     /// line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "samples={} updates={} redesigns=",
-            self.samples, self.updates
+            "samples={} lost={} updates={} handover=",
+            self.samples, self.lost, self.updates
         )?;
+        write_list(f, &self.handover)?;
+        f.write_str(" redesigns=")?;
         write_list(f, &self.redesigns)?;
-        write!(
-            f,
-            " fallback={} checksum={:#018x} theta=",
-            self.fallback, self.checksum
-        )?;
+        write!(f, " overruns={} theta=", self.overruns)?;
         write_list(f, &self.theta_raw)
     }
 }

@@ -1,5 +1,6 @@
-//! The encoding of the embedded recording (`fixtures/emps_excerpt.bin`): delta-encoded records
-//! of variable length, read in order by a [`Cursor`].
+//! The encoding of the bench image's recorded closed-loop run (`fixtures/pil_trace.bin`, the
+//! frames `count_insns.py` feeds the interrupt's body): delta-encoded records of variable
+//! length, read in order by a [`Cursor`].
 //!
 //! The positions of a recording change smoothly: the measured position y (whole encoder quanta)
 //! has small second differences, the reference r (a planned trajectory, raw I48F16) piecewise
@@ -16,11 +17,11 @@
 //! with every value before the first record taken as zero (so the first record carries y(0),
 //! r(0) and u(0) themselves). Differences wrap (in `i32` for y and u, in `i64` for r), so
 //! [`encode`] and [`Cursor::next`] are exact inverses for every sample the layout holds: y a whole number of quanta in `i32`,
-//! |r| < 2⁴⁷ raw, u in `i16` raw (|u| < ½ full scale); [`encode`] refuses any other. On the
-//! 640-row EMPS excerpt this takes 2.1 KB instead of the 7.7 KB of fixed 12-byte records.
+//! |r| < 2⁴⁷ raw, u in `i16` raw (|u| < ½ full scale); [`encode`] refuses any other. The PIL
+//! trace (3 seeks of the twin, u = 0) takes ≈ 3.1 bytes per record instead of 12.
 //!
-//! The firmware steps one record per sample period, in order: decoding is one [`Cursor::next`]
-//! (≈ 3 varints and a few additions). [`record`] is the random access the tests use.
+//! The bench steps one record per call, in order: decoding is one [`Cursor::next`]
+//! (≈ 3 varints and a few additions).
 
 use sledid::{PositionI48F16, Sample, SignalI16F16};
 
@@ -170,14 +171,4 @@ pub fn encode<'a>(
         (y, r, u) = ([y_now, dy], [r_now, dr, ddr], [u_now, du]);
     }
     Some(())
-}
-
-/// Record `index` of `bytes` (decodes every record before it); `None` past the end.
-#[allow(dead_code)]
-pub fn record(bytes: &[u8], index: usize) -> Option<Sample> {
-    let mut cursor = Cursor::new();
-    for _ in 0..index {
-        cursor.next(bytes)?;
-    }
-    cursor.next(bytes)
 }

@@ -1002,7 +1002,8 @@ fn compensation_level(map: Option<&InverseInputMap>) -> f32 {
 
 /// `v` less a dead zone of l/2 quanta per sample (half what one flicker of the reading moves v̂
 /// by), I16F16 raw.
+/// Never panics: the width is taken as |l|/2 (a validated l is in [0, 1]).
 fn dead_zone(v: i32, l: crate::num::gain::Gain) -> i32 {
-    let width = sat_i32(shr_round_i64(l.apply(1 << 16), 16), &mut false) >> 1;
-    v.saturating_sub(v.clamp(-width, width))
+    let width = (sat_i32(shr_round_i64(l.apply(1 << 16), 16), &mut false) >> 1).saturating_abs();
+    v.saturating_sub(v.max(-width).min(width))
 }

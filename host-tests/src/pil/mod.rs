@@ -1,0 +1,610 @@
+//! Processor in the loop (PIL): the firmware image (`src/bin/firmware.rs`) under QEMU closes the
+//! loop around the sled twin running here, and every answer it gives is checked against the host
+//! running the same interrupt body ([`fw_config::Ticker`]) on the same configuration words.
+//!
+//! # One sample period
+//! ```text
+//! twin        r(k), y(k)                                  (crate::twin: reference, sensor)
+//! reference   Ticker::step(frame) on the host → expected UpFrame, posted job
+//!             background at once: a job is redesigned and delivered (adopted at k + L),
+//!             unless the fault plan holds it back ≥ L periods (then it is not delivered)
+//! target      the same frame over the link → UpFrame        (link::QemuLink)
+//! check       target's UpFrame == expected, bit for bit (u raw I16F16, flags, duty, pin)
+//! twin        advances one period under the target's u(k)
+//! ```
+//! Checked in lockstep, the target's drive sequence equals the host closed-loop run's
+//! ([`run_loop`] without a target: same library code, plant, seed and words) sample for sample:
+//! the first difference stops the run and names the sample.
+//!
+//! # Faults the host injects ([`Faults`])
+//! Carried in the down frame's command word (`fw_config::Command`), decided from the host's
+//! reference alone, so that the host-only run makes the same decisions:
+//! - a slow background: the target hands a job's result back only after `delay` more samples
+//!   (L − 1: still adopted at k + L; L: the hand-over misses, the old gains stay, flagged);
+//! - an overrun: the handler spins past the next period's start (the target must count it);
+//! - a lost position: the frame carries no y (`step_lost`).
+//!
+//! The configuration is [`design`]: the scheduled controller tuned on the default twin's sled
+//! (`crate::control_eval::scheduled_design_for`, at the sled's Ts = 0.455 ms) with the hand-over
+//! latency [`HANDOVER_LATENCY`]; its words are `src/bin/firmware/loop_words.rs`
+//! (`SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`).
+
+mod cli;
+#[path = "../../../src/bin/firmware/config.rs"]
+pub mod fw_config;
+pub mod link;
+
+use std::path::{Path, PathBuf};
+use std::process::Command as Process;
+use std::time::{Duration, Instant};
+
+use sledid::SignalI16F16;
+use sledid::servo::{SERVO_WORDS_MAX, ServoDesign, ServoOptions, SledServo};
+
+use crate::control::design::scheduled_design_for;
+use crate::reference::control::position_from_quanta;
+use crate::twin::{SledController, Twin, TwinParams};
+pub use cli::{PilArgs, pil_cmd};
+use fw_config::{Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame};
+pub use link::{Core, QemuLink};
+
+/// L, the firmware's hand-over latency: a redesign requested by sample k is adopted at k + 12
+/// (5.5 ms). The background gets what the interrupt leaves of each period, and one redesign
+/// (the placement and the Coulomb inverse map) takes up to ≈ 9.4 periods of that on the
+/// M0+ at 48 MHz (≈ 2.2 on the M4F at 72 MHz); 12 leaves two periods of margin. Measured in
+/// `BENCHMARKS.md` (`sledid_fw_bench_redesign`).
+pub const HANDOVER_LATENCY: u16 = 12;
+
+/// Seeks of the PIL runs `cargo xtask pil` and the tests make.
+pub const SEEKS: u32 = 20;
+
+/// Seed of those runs.
+pub const SEED: u64 = 1;
+
+/// The twin the PIL closes the loop around: the default (the paper's sled, Ts = 0.455 ms) with
+/// `seeks` random seeks.
+pub fn twin_params(seeks: u32) -> TwinParams {
+    let mut params = TwinParams::default();
+    params.reference.seek_count = seeks;
+    params.reference.targets_tracks = None;
+    params
+}
+
+/// The firmware's servo: the scheduled controller designed from the default twin's sled as its
+/// prior ([`scheduled_design_for`]), with the identifier and safety layer
+/// [`ServoDesign::new`] derives from it, hand-over latency [`HANDOVER_LATENCY`].
+///
+/// # Errors
+/// The design's errors.
+pub fn design() -> Result<ServoDesign, String> {
+    let params = TwinParams::default();
+    let controller = scheduled_design_for(&params, &params.plant)?;
+    Ok(ServoDesign {
+        options: ServoOptions {
+            handover_latency_samples: HANDOVER_LATENCY,
+            ..ServoOptions::default()
+        },
+        ..ServoDesign::new(controller)
+    })
+}
+
+/// The configuration words of [`design`] (what `loop_words.rs` must hold).
+///
+/// # Errors
+/// The design's errors.
+pub fn design_words() -> Result<Vec<u32>, String> {
+    let mut buf = [0u32; SERVO_WORDS_MAX];
+    let n = design()?.to_words(&mut buf).map_err(|e| e.to_string())?;
+    Ok(buf.get(..n).unwrap_or(&[]).to_vec())
+}
+
+/// The configuration the firmware runs (the committed words).
+///
+/// # Errors
+/// When the committed words do not decode.
+pub fn firmware_config() -> Result<SledServo, String> {
+    fw_config::config().map_err(|e| format!("src/bin/firmware/loop_words.rs: {e}"))
+}
+
+/// The faults a run injects (module doc). Sample indices count from 0; jobs in the order they
+/// are posted.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Faults {
+    /// Samples sent without a position.
+    pub lost: Vec<u32>,
+    /// Samples whose handler overruns; each moves to the first sample at or after it with no
+    /// redesign in flight (so that the late background the overrun causes misses no hand-over).
+    pub stalls: Vec<u32>,
+    /// Jobs whose background is slow but in time (delay L − 1).
+    pub slow_jobs: Vec<u32>,
+    /// Jobs whose background is late (delay L): their hand-overs miss.
+    pub missed_jobs: Vec<u32>,
+}
+
+impl Faults {
+    /// The tests' plan on the default twin: the hand-overs of jobs 0 and 1 miss — job 0 is
+    /// asked for by the first sample and due while the first seek's reference still moves, job 1
+    /// on the first arrival, due while settling — jobs 2 and 5 come back slow but in time, three
+    /// overruns, three lost positions (one while the reference moves).
+    pub fn plan() -> Self {
+        Self {
+            lost: vec![1_460, 4_000, 4_001],
+            stalls: vec![900, 5_000, 9_000],
+            slow_jobs: vec![2, 5],
+            missed_jobs: vec![0, 1],
+        }
+    }
+}
+
+/// What the host's plan did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FaultLog {
+    /// Samples sent without a position.
+    pub lost: Vec<u32>,
+    /// Samples whose handler was told to overrun.
+    pub stalls: Vec<u32>,
+    /// (job, posting sample, delay) of every job held back (slow or late).
+    pub delayed: Vec<(u32, u32, u8)>,
+    /// Jobs posted.
+    pub jobs: u32,
+}
+
+/// One sample of a run: the frame sent and the answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Record {
+    /// What the host sent.
+    pub frame: DownFrame,
+    /// What came back (the target's, or the host's reference without a target).
+    pub up: UpFrame,
+}
+
+/// The first sample at which the target's answer differed from the reference's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mismatch {
+    /// The sample.
+    pub k: u32,
+    /// The frame sent.
+    pub frame: DownFrame,
+    /// The target's answer.
+    pub target: UpFrame,
+    /// The reference's.
+    pub expected: UpFrame,
+}
+
+/// The other end of the lockstep: something that answers frames like the firmware.
+pub trait Target {
+    /// Sends `frame`, returns the answer.
+    ///
+    /// # Errors
+    /// The link's failure.
+    fn exchange(&mut self, frame: &DownFrame) -> Result<UpFrame, String>;
+}
+
+impl Target for QemuLink {
+    fn exchange(&mut self, frame: &DownFrame) -> Result<UpFrame, String> {
+        QemuLink::exchange(self, frame)
+    }
+}
+
+/// A target that replays recorded answers (the tests' fake firmware: [`Self::corrupt`] makes it
+/// answer one sample differently).
+#[derive(Clone, Debug)]
+pub struct ReplayTarget {
+    answers: Vec<UpFrame>,
+    next: usize,
+}
+
+impl ReplayTarget {
+    /// Answers `answers` in order.
+    pub fn new(answers: Vec<UpFrame>) -> Self {
+        Self { answers, next: 0 }
+    }
+
+    /// XORs the fields of `flip` into the answer to sample `k`.
+    pub fn corrupt(&mut self, k: usize, flip: UpFrame) {
+        if let Some(a) = self.answers.get_mut(k) {
+            a.k ^= flip.k;
+            a.u_raw ^= flip.u_raw;
+            a.flags ^= flip.flags;
+            a.duty ^= flip.duty;
+            a.forward ^= flip.forward;
+        }
+    }
+}
+
+impl Target for ReplayTarget {
+    fn exchange(&mut self, _frame: &DownFrame) -> Result<UpFrame, String> {
+        let answer = self.answers.get(self.next).copied();
+        self.next += 1;
+        answer.ok_or_else(|| format!("no recorded answer for sample {}", self.next - 1))
+    }
+}
+
+/// The controller the twin sees: the reference in lockstep with the target (if any).
+struct Lockstep<'a, 't> {
+    reference: Ticker<SledServo>,
+    latency: u32,
+    target: Option<&'t mut dyn Target>,
+    faults: &'a Faults,
+    stall_from: usize,
+    log: FaultLog,
+    records: Vec<Record>,
+    mismatch: Option<Mismatch>,
+    link_error: Option<String>,
+    u_full_scale_v: f64,
+}
+
+impl Lockstep<'_, '_> {
+    fn stopped(&self) -> bool {
+        self.mismatch.is_some() || self.link_error.is_some()
+    }
+}
+
+impl SledController for Lockstep<'_, '_> {
+    fn step(&mut self, r_counts: f64, y_counts: f64) -> f64 {
+        let k = self.records.len() as u32;
+        let kind = if self.faults.lost.contains(&k) {
+            self.log.lost.push(k);
+            Kind::Lost
+        } else {
+            Kind::Sample
+        };
+        let mut frame = DownFrame {
+            command: Command::new(kind),
+            r: position_from_quanta(r_counts),
+            y: position_from_quanta(y_counts),
+        };
+        let expected = self.reference.step(&frame);
+        if let Some(posted) = self.reference.take_job() {
+            let n = self.log.jobs;
+            self.log.jobs += 1;
+            let delay = if self.faults.missed_jobs.contains(&n) {
+                self.latency
+            } else if self.faults.slow_jobs.contains(&n) {
+                self.latency.saturating_sub(1)
+            } else {
+                0
+            };
+            let delay = u8::try_from(delay).unwrap_or(u8::MAX);
+            if delay > 0 {
+                self.log.delayed.push((n, k, delay));
+            }
+            frame.command = frame.command.with_delay(delay);
+            if u32::from(delay) < self.latency {
+                let design = self.reference.config().redesign(&posted);
+                self.reference.deliver(posted.ticket, design);
+            }
+        }
+        if let Some(&at) = self.faults.stalls.get(self.stall_from)
+            && k >= at
+            && !self.reference.state().redesign_in_flight()
+        {
+            self.stall_from += 1;
+            self.log.stalls.push(k);
+            frame.command = frame.command.with_stall();
+        }
+        let up = match self.target.as_mut() {
+            None => expected,
+            Some(link) => match link.exchange(&frame) {
+                Ok(up) => up,
+                Err(e) => {
+                    self.link_error = Some(e);
+                    expected
+                }
+            },
+        };
+        if up != expected && self.mismatch.is_none() {
+            self.mismatch = Some(Mismatch {
+                k,
+                frame,
+                target: up,
+                expected,
+            });
+        }
+        self.records.push(Record { frame, up });
+        SignalI16F16::from_raw(up.u_raw).to_f64() * self.u_full_scale_v
+    }
+}
+
+/// A closed-loop run on the twin.
+pub struct LoopRun {
+    /// The twin with its recording (driven by the target's answers when there was a target).
+    pub twin: Twin,
+    /// Every sample's frame and answer.
+    pub records: Vec<Record>,
+    /// The host's reference at the end (what the target's result line must equal; its overruns
+    /// are the stalls asked for).
+    pub summary: Summary,
+    /// The faults injected.
+    pub faults: FaultLog,
+    /// The first difference between target and reference.
+    pub mismatch: Option<Mismatch>,
+    /// The link's failure, if it failed.
+    pub link_error: Option<String>,
+}
+
+impl LoopRun {
+    /// Seeks that ended, and of those, seeks that settled (|target − y| ≤ 1 quantum for the rest
+    /// of the seek, `crate::twin::analysis`).
+    pub fn settled(&self) -> (usize, usize) {
+        let stats = self.twin.seek_stats();
+        let settled = stats.iter().filter(|s| s.settling_time_s.is_some()).count();
+        (stats.len(), settled)
+    }
+}
+
+/// Runs the twin of `params` (seed `seed`) in closed loop with the firmware's configuration:
+/// the host's reference alone (`target` = `None`: the host closed-loop run) or in lockstep with
+/// a target, with `faults`. Stops at the first mismatch or link failure.
+///
+/// # Errors
+/// Twin parameters or the words.
+pub fn run_loop(
+    params: &TwinParams,
+    seed: u64,
+    faults: &Faults,
+    target: Option<&mut dyn Target>,
+) -> Result<LoopRun, String> {
+    let config = firmware_config()?;
+    let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
+    twin.set_controller_label("sledid-fw");
+    let mut lockstep = Lockstep {
+        latency: config.handover_latency(),
+        reference: Ticker::new(config),
+        target,
+        faults,
+        stall_from: 0,
+        log: FaultLog::default(),
+        records: Vec::new(),
+        mismatch: None,
+        link_error: None,
+        u_full_scale_v: params.plant.u_max_v,
+    };
+    while !lockstep.stopped() && twin.step(&mut lockstep).is_some() {}
+    let mut summary = lockstep.reference.summary();
+    summary.overruns = lockstep.log.stalls.len() as u32;
+    Ok(LoopRun {
+        twin,
+        summary,
+        records: lockstep.records,
+        faults: lockstep.log,
+        mismatch: lockstep.mismatch,
+        link_error: lockstep.link_error,
+    })
+}
+
+/// The workspace root (the `sledid` package).
+pub fn workspace() -> PathBuf {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest.parent().unwrap_or(manifest).to_path_buf()
+}
+
+/// The firmware builds' own target directory (an outer `cargo test` holds the lock of its own).
+pub fn firmware_target_dir() -> PathBuf {
+    workspace().join("target/fw")
+}
+
+/// The firmware image of `core` (after [`build_firmware`]).
+pub fn firmware_elf(core: Core) -> PathBuf {
+    firmware_target_dir().join(format!("{}/firmware/sledid-fw", core.target()))
+}
+
+/// Builds the firmware for both cores: `cargo build --profile firmware -p sledid --bin
+/// sledid-fw --target thumbv7em-none-eabihf --target thumbv6m-none-eabi` in
+/// [`firmware_target_dir`].
+///
+/// # Errors
+/// When cargo fails.
+pub fn build_firmware() -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Process::new(cargo);
+    cmd.current_dir(workspace()).args([
+        "build",
+        "--profile",
+        "firmware",
+        "-p",
+        "sledid",
+        "--bin",
+        "sledid-fw",
+    ]);
+    for core in Core::ALL {
+        cmd.args(["--target", core.target()]);
+    }
+    let status = cmd
+        .env("CARGO_TARGET_DIR", firmware_target_dir())
+        // These would replace the config's per-target rustflags (and drop `-Tlink.x`).
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("firmware build failed: {status}"))
+    }
+}
+
+/// The firmware's timing line (`fw_config::TIMING_PREFIX`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Timing {
+    /// The part's core clock, Hz.
+    pub clock_hz: u32,
+    /// SysTick reload.
+    pub reload: u32,
+    /// Overruns the host asked for.
+    pub stalls: u32,
+    /// Longest handler that did not overrun, SysTick ticks (under QEMU: virtual time at the
+    /// emulated board's SysTick clock, see `src/bin/firmware.rs`).
+    pub max_ticks: u32,
+    /// Longest handler by the DWT cycle counter (0 on Cortex-M0 and under QEMU).
+    pub dwt_max_cycles: u32,
+    /// Redesign results the background dropped because their hand-over had passed.
+    pub late_dropped: u32,
+    /// Painted-stack high-water mark, bytes.
+    pub stack_used: u32,
+    /// The stack region, bytes.
+    pub stack_size: u32,
+    /// False when the link failed before the end frame.
+    pub link_ok: bool,
+}
+
+impl Timing {
+    /// Parses the timing line (`key=value` pairs after the prefix).
+    ///
+    /// # Errors
+    /// A missing or malformed field.
+    pub fn parse(line: &str) -> Result<Self, String> {
+        let rest = line
+            .strip_prefix(TIMING_PREFIX)
+            .ok_or_else(|| format!("not a timing line: {line}"))?;
+        let mut t = Self::default();
+        let mut seen = 0;
+        for pair in rest.split_whitespace() {
+            let (key, value) = pair
+                .split_once('=')
+                .ok_or_else(|| format!("`{pair}` in the timing line"))?;
+            let num = |v: &str| {
+                v.parse::<u32>()
+                    .map_err(|e| format!("{key}={v} in the timing line: {e}"))
+            };
+            match key {
+                "clock_hz" => t.clock_hz = num(value)?,
+                "reload" => t.reload = num(value)?,
+                "stalls" => t.stalls = num(value)?,
+                "max_ticks" => t.max_ticks = num(value)?,
+                "dwt_max_cycles" => t.dwt_max_cycles = num(value)?,
+                "late_dropped" => t.late_dropped = num(value)?,
+                "stack" => {
+                    let (used, size) = value
+                        .split_once('/')
+                        .ok_or_else(|| format!("stack={value} in the timing line"))?;
+                    t.stack_used = num(used)?;
+                    t.stack_size = num(size)?;
+                }
+                "link_ok" => t.link_ok = value == "true",
+                _ => return Err(format!("unknown field `{key}` in the timing line")),
+            }
+            seen += 1;
+        }
+        if seen != 8 {
+            return Err(format!(
+                "{seen} fields in the timing line, expected 8: {line}"
+            ));
+        }
+        Ok(t)
+    }
+}
+
+/// A PIL run on one core.
+pub struct PilRun {
+    /// The core.
+    pub core: Core,
+    /// The closed loop (the twin driven by the target).
+    pub run: LoopRun,
+    /// QEMU's exit status (the firmware's semihosting exit code).
+    pub status: std::process::ExitStatus,
+    /// The decoded defmt log.
+    pub log: String,
+    /// The firmware's result line.
+    pub result_line: Option<String>,
+    /// The firmware's timing line.
+    pub timing: Option<Timing>,
+    /// Wall time of the run.
+    pub wall: Duration,
+}
+
+impl PilRun {
+    /// The result line the host's reference expects.
+    pub fn expected_result_line(&self) -> String {
+        format!("{RESULT_PREFIX} {}", self.run.summary)
+    }
+
+    /// Every check of a PIL run: the link held, no mismatch, QEMU exited with success, the
+    /// result line equals the reference's (overruns included: one per stall asked for), the
+    /// stalls were made, every seek settled.
+    ///
+    /// # Errors
+    /// The first check that fails, with what was seen.
+    pub fn check(&self) -> Result<(), String> {
+        let core = self.core.name();
+        if let Some(e) = &self.run.link_error {
+            return Err(format!("{core}: {e}\n{}", self.log));
+        }
+        if let Some(m) = &self.run.mismatch {
+            return Err(format!(
+                "{core}: the target differs from the host at sample {}: {m:?}",
+                m.k
+            ));
+        }
+        if !self.status.success() {
+            return Err(format!(
+                "{core}: QEMU exited with {}; log:\n{}",
+                self.status, self.log
+            ));
+        }
+        let expected = self.expected_result_line();
+        if self.result_line.as_deref() != Some(expected.as_str()) {
+            return Err(format!(
+                "{core}: result line\n  target: {:?}\n  host:   {expected}",
+                self.result_line
+            ));
+        }
+        let timing = self
+            .timing
+            .ok_or_else(|| format!("{core}: no timing line"))?;
+        if timing.stalls != self.run.faults.stalls.len() as u32 {
+            return Err(format!(
+                "{core}: {} stalls made, {} asked for",
+                timing.stalls,
+                self.run.faults.stalls.len()
+            ));
+        }
+        let (seeks, settled) = self.run.settled();
+        if settled != seeks || seeks == 0 {
+            return Err(format!("{core}: {settled} of {seeks} seeks settled"));
+        }
+        Ok(())
+    }
+}
+
+/// Runs `elf` for `core` under QEMU in closed loop with the twin of `params` (seed `seed`),
+/// checked in lockstep against the host's reference, with `faults`; QEMU works in `dir`.
+///
+/// # Errors
+/// QEMU or its link failing to start, the words, `defmt-print`. A mismatch or a link failure
+/// during the run is in the result, not an error.
+pub fn run_pil(
+    core: Core,
+    elf: &Path,
+    params: &TwinParams,
+    seed: u64,
+    faults: &Faults,
+    dir: &Path,
+) -> Result<PilRun, String> {
+    let qemu = link::require_qemu()?;
+    let start = Instant::now();
+    let mut link = QemuLink::start(&qemu, elf, core, dir, Duration::from_secs(60))?;
+    let run = run_loop(params, seed, faults, Some(&mut link as &mut dyn Target))?;
+    let exit = link.finish(Duration::from_secs(60))?;
+    let wall = start.elapsed();
+    let log = link::decode_defmt(elf, &exit.defmt_frames)?;
+    let line = |prefix: &str| {
+        log.lines()
+            .find(|l| l.starts_with(prefix))
+            .map(str::to_owned)
+    };
+    let timing = line(TIMING_PREFIX).map(|l| Timing::parse(&l)).transpose()?;
+    Ok(PilRun {
+        core,
+        run,
+        status: exit.status,
+        result_line: line(RESULT_PREFIX),
+        timing,
+        log: if exit.stderr.is_empty() {
+            log
+        } else {
+            format!("{log}\nQEMU stderr:\n{}", exit.stderr)
+        },
+        wall,
+    })
+}
