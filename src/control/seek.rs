@@ -56,6 +56,7 @@ const MAX_BRAKING_STEPS: u32 = 1 << 16;
 
 /// User-facing settings of the time-optimal seek.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TimeOptimalDesign {
     /// α while the prior drives (before the first identified model), in (0, 1].
     pub alpha_prior: f64,
