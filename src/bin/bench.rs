@@ -297,6 +297,32 @@ impl ScheduledBench {
         (o.u.raw() as u32) ^ u32::from(o.flags.bits())
     }
 
+    /// The time-optimal seek scenario: the same design with [`ScheduledDesign::with_time_optimal_seeks`].
+    pub fn new_seek() -> Option<Self> {
+        let config = Self::design()?.with_time_optimal_seeks().build().ok()?;
+        Some(Self {
+            state: Controller::new_state(&config),
+            config,
+        })
+    }
+
+    /// Call `i` of the seek scenario: one Seek-region step of the time-optimal law (velocity
+    /// estimate, braking-curve search, model inverse, friction compensation, saturation), the
+    /// error 20–650 quanta from the target (on the nominal model's braking curve, so the table
+    /// search and its interpolation run) with the reading wobbling by the ±2-quantum table.
+    pub fn call_seek(&mut self, i: u32) -> u32 {
+        let r = PositionI48F16::from_counts(3000);
+        let e_counts = 20 + i64::from(i % 64) * 10;
+        let y =
+            PositionI48F16::from_raw(r.raw() - (e_counts << 16) + i64::from(at(&Y_TABLE, i).raw()));
+        let report = ModelReport {
+            status: Status::UPDATED,
+            eps: at(&PSI_TABLE, i),
+        };
+        let o = self.config.step_law(&mut self.state, r, y, &report);
+        (o.u.raw() as u32) ^ u32::from(o.flags.bits()) ^ u32::from(o.region.index())
+    }
+
     /// Call `i`: the same step, then the slow-rate redesign (f32 + libm, and the identified
     /// friction's inverse map) from a θ = [a₁, b₁, c] that varies with `i` (subtract the step's
     /// cost).
@@ -385,6 +411,7 @@ mod target {
     static FRICTION: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
     static SCHED: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static REDESIGN: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
+    static SEEK: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static LOOP: Mutex<RefCell<Option<LoopBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
@@ -413,6 +440,7 @@ mod target {
                 .replace(NonlinearBench::new(NonlinearStructure::FrictionFeedback));
             SCHED.borrow(cs).replace(ScheduledBench::new());
             REDESIGN.borrow(cs).replace(ScheduledBench::new());
+            SEEK.borrow(cs).replace(ScheduledBench::new_seek());
             LOOP.borrow(cs).replace(LoopBench::new());
         });
     }
@@ -548,6 +576,17 @@ mod target {
         })
     }
 
+    /// One time-optimal seek step (the Seek region's law, `sledid::control::seek`).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_seek_step(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            SEEK.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call_seek(i))
+        })
+    }
+
     /// One scheduled step plus the slow-rate redesign (f32 + libm pole placement).
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_sched_redesign(i: u32) -> u32 {
@@ -562,7 +601,7 @@ mod target {
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 15] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 16] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls4_update,
@@ -576,6 +615,7 @@ mod target {
         bench_wiener_step,
         bench_friction_step,
         bench_sched_step,
+        bench_seek_step,
         bench_sched_redesign,
         bench_loop_step,
     ];

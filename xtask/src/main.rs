@@ -282,7 +282,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 15] = [
+const BENCH_FNS: [&str; 16] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls4_update",
@@ -296,6 +296,7 @@ const BENCH_FNS: [&str; 15] = [
     "bench_wiener_step",
     "bench_friction_step",
     "bench_sched_step",
+    "bench_seek_step",
     "bench_sched_redesign",
     "bench_loop_step",
 ];
