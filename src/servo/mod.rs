@@ -348,7 +348,7 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 248 (3 of framing, the
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 247 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings and
 /// safety layer, the controller with both maps and time-optimal seeks;
 /// `host-tests/tests/sled_loop.rs` counts them).

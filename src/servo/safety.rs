@@ -26,8 +26,9 @@
 //! its limit stalls.
 //!
 //! # Formats
-//! Positions I48F16 raw (`i64`), speeds and Δy I16F16 raw, T_coast a [`Gain`] (samples), counts
-//! `u16`/`u32`. Integer comparisons only.
+//! Positions I48F16 raw (`i64`), speeds and Δy I16F16 raw, T_coast whole samples (`u16`, rounded
+//! up; the coast Δy·T_coast computed at 1/16 quantum), counts `u16`/`u32`. Integer comparisons
+//! only; no 64-bit multiply (a library call on the M0+).
 
 #![deny(clippy::float_arithmetic)]
 
@@ -35,7 +36,6 @@ use crate::control::ConfigError;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::SignalI16F16;
 use crate::num::float_bits::from_fixed;
-use crate::num::gain::Gain;
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Why the servo stopped.
@@ -79,7 +79,7 @@ pub struct SafetyDesign {
     /// Soft end stop above, quanta.
     pub travel_max_quanta: f64,
     /// T_coast: samples the sled coasts per quantum per sample of speed once the drive is cut
-    /// (a/(1 − a) of its velocity model; more is safer).
+    /// (a/(1 − a) of its velocity model; more is safer), in [0, 2,048], rounded up to whole samples.
     pub coast_samples: f64,
     /// m: fixed margin before the end stops, quanta.
     pub travel_margin_quanta: f64,
@@ -146,9 +146,12 @@ impl SafetyDesign {
         let config = SafetyConfig {
             travel_min: pos(self.travel_min_quanta)?,
             travel_max: pos(self.travel_max_quanta)?,
-            coast: Gain::from_f64(self.coast_samples)
-                .filter(|_| self.coast_samples >= 0.0)
-                .ok_or(bad(self.coast_samples))?,
+            // Whole samples, rounded up (more is safer).
+            coast_samples: if (0.0..=f64::from(COAST_SAMPLES_MAX)).contains(&self.coast_samples) {
+                libm::ceil(self.coast_samples) as u16
+            } else {
+                return Err(bad(self.coast_samples));
+            },
             margin: pos(self.travel_margin_quanta)?,
             runaway_samples: self.runaway_samples,
             runaway_speed: speed(self.runaway_speed_quanta)?,
@@ -163,13 +166,23 @@ impl SafetyDesign {
     }
 }
 
+/// `x` saturated to `i32`.
+#[inline(always)]
+fn sat_i32(x: i64) -> i32 {
+    x.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
+/// The longest coast T_coast, samples (a velocity pole up to a = 0.999).
+pub const COAST_SAMPLES_MAX: u16 = 2048;
+
 /// Validated configuration (`Copy`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SafetyConfig {
     travel_min: i64,
     travel_max: i64,
-    coast: Gain,
+    /// T_coast in whole samples (≤ [`COAST_SAMPLES_MAX`]).
+    coast_samples: u16,
     margin: i64,
     runaway_samples: u16,
     runaway_speed: i32,
@@ -195,8 +208,8 @@ impl SafetyConfig {
         if self.travel_min.saturating_add(self.margin) >= inner {
             return Err(ConfigError::Safety(q(self.travel_max)));
         }
-        if !self.coast.is_valid() || self.coast.apply(1 << 16) < 0 {
-            return Err(ConfigError::Safety(f64::NAN));
+        if self.coast_samples > COAST_SAMPLES_MAX {
+            return Err(ConfigError::Safety(f64::from(self.coast_samples)));
         }
         if self.runaway_speed < 0 || self.stall_drive < 0 {
             return Err(ConfigError::Safety(q(i64::from(self.runaway_speed))));
@@ -233,6 +246,15 @@ impl SafetyConfig {
         reason
     }
 
+    /// The sled at `y` (I48F16 raw) coasting `coast` (I48F16 raw, signed) ends within a margin of
+    /// an end stop or past it.
+    #[inline(always)]
+    fn beyond_travel(&self, y: i64, coast: i64) -> bool {
+        let ahead = y.saturating_add(coast.max(0)).saturating_add(self.margin);
+        let behind = y.saturating_add(coast.min(0)).saturating_sub(self.margin);
+        ahead > self.travel_max || behind < self.travel_min
+    }
+
     fn judge(
         &self,
         state: &mut SafetyState,
@@ -262,28 +284,18 @@ impl SafetyConfig {
         };
         state.lost = 0;
         let previous = state.last_y.replace(y.raw());
+        // e = r − y as I16F16, saturated at ±32,768 quanta (a runaway trips long before; a
+        // saturated e stops growing, and the travel check, on the full position, stays).
+        let e = sat_i32(r.raw().saturating_sub(y.raw()));
         let Some(previous) = previous else {
-            state.last_e = r.raw().saturating_sub(y.raw());
-            return None;
+            state.last_e = e;
+            // The first reading: the travel check without a speed.
+            return self.beyond_travel(y.raw(), 0).then_some(StopReason::Travel);
         };
-        let dy = y.raw().saturating_sub(previous);
-        let dy_i16f16 = dy.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
-        // Travel: where the sled would come to rest with the drive cut now.
-        let coast = self.coast.apply(dy_i16f16) >> 16;
-        let ahead = y
-            .raw()
-            .saturating_add(coast.max(0))
-            .saturating_add(self.margin);
-        let behind = y
-            .raw()
-            .saturating_add(coast.min(0))
-            .saturating_sub(self.margin);
-        if ahead > self.travel_max || behind < self.travel_min {
-            return Some(StopReason::Travel);
-        }
+        let dy_i16f16 = sat_i32(y.raw().saturating_sub(previous));
         // Stall: a strong drive, no reading change.
         let strong = saturated || u.raw().unsigned_abs() >= self.stall_drive.unsigned_abs();
-        state.stall = if strong && dy == 0 {
+        state.stall = if strong && dy_i16f16 == 0 {
             state.stall.saturating_add(1)
         } else {
             0
@@ -291,15 +303,31 @@ impl SafetyConfig {
         if state.stall >= self.stall_samples {
             return Some(StopReason::Stall);
         }
+        if dy_i16f16 == 0 {
+            // The reading has not moved (most samples of a settle or hold): the travel check
+            // passed at this reading with a speed ≥ 0 last sample, and nothing moves away.
+            state.last_e = e;
+            state.runaway = 0;
+            return None;
+        }
+        // Travel: where the sled would come to rest with the drive cut now. Δy·T_coast in 1/16
+        // quantum (|Δy >> 12| < 2¹⁹, T ≤ 2¹¹: no overflow, no 64-bit multiply — a library call
+        // on the M0+), back to I48F16.
+        let coast = i64::from((dy_i16f16 >> 12).wrapping_mul(i32::from(self.coast_samples))) << 12;
+        if self.beyond_travel(y.raw(), coast) {
+            return Some(StopReason::Travel);
+        }
         // Runaway: |e| growing with the drive toward the reference, or fast.
-        let e = r.raw().saturating_sub(y.raw());
         let last_e = core::mem::replace(&mut state.last_e, e);
         let de = e.saturating_sub(last_e);
         // |e| growing because the reading moves away (not because a reference outruns the sled).
-        let away = e.signum() * dy.signum() < 0;
-        let growing = away && e.signum() * de.signum() > 0 && de.unsigned_abs() >= 1 << 16;
-        let pushing = e.signum() * i64::from(u.raw().signum()) > 0;
-        let fast = de.unsigned_abs() > u64::from(self.runaway_speed.unsigned_abs());
+        // Signs compared, not multiplied.
+        let same_sign = |a: bool, b: bool, x: i32| (a && x > 0) || (b && x < 0);
+        let (e_pos, e_neg) = (e > 0, e < 0);
+        let away = same_sign(e_neg, e_pos, dy_i16f16);
+        let growing = away && same_sign(e_pos, e_neg, de) && de.unsigned_abs() >= 1 << 16;
+        let pushing = same_sign(e_pos, e_neg, u.raw());
+        let fast = de.unsigned_abs() > self.runaway_speed.unsigned_abs();
         if !(growing && (pushing || fast)) {
             state.runaway = 0;
             return None;
@@ -316,7 +344,7 @@ impl SafetyConfig {
         }
         let first = state.runaway_half.abs_diff(state.runaway_from);
         let second = e.abs_diff(state.runaway_half);
-        let enough = u64::from(self.runaway_samples / 2) << 16;
+        let enough = u32::from(self.runaway_samples / 2) << 16;
         if second >= first && second >= enough {
             return Some(StopReason::Runaway);
         }
@@ -335,11 +363,11 @@ pub struct SafetyState {
     lost: u16,
     stall: u16,
     runaway: u16,
-    /// e on the last sample, I48F16 raw quanta.
-    last_e: i64,
-    /// e when the runaway count started and at its half, I48F16 raw.
-    runaway_from: i64,
-    runaway_half: i64,
+    /// e on the last sample, I16F16 raw quanta (saturated at ±32,768 quanta).
+    last_e: i32,
+    /// e when the runaway count started and at its half, I16F16 raw.
+    runaway_from: i32,
+    runaway_half: i32,
     fallbacks: [Option<u32>; FALLBACK_LIMIT_MAX + 1],
     latched: Option<StopReason>,
 }
@@ -373,7 +401,7 @@ impl Words for SafetyConfig {
         self.travel_min.put(w)?;
         self.travel_max.put(w)?;
         self.margin.put(w)?;
-        self.coast.put(w)?;
+        self.coast_samples.put(w)?;
         self.runaway_samples.put(w)?;
         self.runaway_speed.put(w)?;
         self.lost_samples.put(w)?;
@@ -387,7 +415,7 @@ impl Words for SafetyConfig {
             travel_min: i64::take(r),
             travel_max: i64::take(r),
             margin: i64::take(r),
-            coast: Gain::take(r),
+            coast_samples: u16::take(r),
             runaway_samples: u16::take(r),
             runaway_speed: i32::take(r),
             lost_samples: u16::take(r),
