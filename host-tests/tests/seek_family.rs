@@ -10,16 +10,17 @@
 //!
 //! | measure | target | seek mode, seed 1 / 7 | reference-following, seed 1 / 7 |
 //! |---|---|---|---|
-//! | access / bound, median over all seeks | ≤ 1.5 | 1.44 / 1.40 | 6.10 / 5.70 |
-//! | access / bound, p95 | ≤ 2.5 | 10.5 / 13.7 | 26.0 / 20.7 |
+//! | access / bound, median over all seeks | ≤ 1.5 | 1.43 / 1.38 | 6.10 / 5.70 |
+//! | access / bound, p95 | ≤ 2.5 | 8.0 / 10.0 | 26.0 / 20.7 |
 //! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.24 / 1.21 | 3.16 / 2.91 |
-//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 80.0 % / 78.0 % | 84.0 % / 86.5 % |
+//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 89.0 % / 81.5 % | 84.0 % / 86.5 % |
 //! | nominal sled: median access, reference-following / seek mode | ≥ 3 | 27.3 / 5.0 ms = 5.45 | |
 //!
 //! The medians and the nominal speed-up meet the targets and are asserted at them; the p95 and
 //! the clean plants do not (issue 14's note: fast sleds several times the prior's gain ring
-//! after a time-optimal arrival, and sleds held one cell off flicker to two cells on sensor
-//! noise) and are asserted at today's level so that a regression trips.
+//! after a time-optimal arrival; a few sleds held one cell off after their fine steps still
+//! flicker to two cells on sensor noise) and are asserted at today's level so that a regression
+//! trips.
 //!
 //! What trips each: a harness that times the reference-following servo from the reference's
 //! arrival instead of the command (its ratios fall towards the seek mode's), a bound that is too
@@ -62,8 +63,8 @@ fn seeks_on_the_plant_family() {
         // The seek mode: issue 14's targets where met, today's level where not.
         assert!(s.ratio.median <= 1.5, "seed {seed}: {s:?}");
         assert!(s.ratio_long_median <= 1.3, "seed {seed}: {s:?}");
-        assert!(s.ratio.p95 <= 15.0, "seed {seed}: {s:?}");
-        assert!(s.clean >= 0.70, "seed {seed}: {s:?}");
+        assert!(s.ratio.p95 <= 12.0, "seed {seed}: {s:?}");
+        assert!(s.clean >= 0.78, "seed {seed}: {s:?}");
         assert!(s.ratio.median * 3.0 <= f.ratio.median, "seed {seed}");
         assert!(r.nominal.speedup >= 3.0, "seed {seed}: {:?}", r.nominal);
         assert!((25.0..=31.0).contains(&r.nominal.reference.access_ms.median));

@@ -637,6 +637,7 @@ impl ScheduledConfig {
             band,
             g.rest_samples,
             g.rest_speed_i16f16,
+            self.seek.is_some(),
         );
         let previous = state.region;
         let region =
@@ -923,9 +924,10 @@ impl Controller for ScheduledConfig {
     /// Placed gains replace the gains in use and end the fallback; a refusal latches the fallback
     /// until a model is accepted; a skip keeps everything.
     fn adopt(&self, state: &mut ScheduledState, design: &RedesignResult) {
-        match (design.outcome, design.gains) {
+        // Matched by reference: the gains are copied once, into the state.
+        match (&design.outcome, &design.gains) {
             (Redesign::Applied(_), Some(g)) => {
-                state.gains = g;
+                state.gains = *g;
                 state.fallback = false;
                 if self.identify_friction {
                     state.compensation = design.compensation;
