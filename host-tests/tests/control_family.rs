@@ -12,7 +12,7 @@
 //! | ≥ 20 % faster than frozen where the prior is > 30 % off | 79.5 % of 195 | 86.2 % of 196 | ≥ 75 % (target: all) |
 //! | holding error ≤ 1 quantum | true ≤ 1.49 (read ≤ 2) | the same | true < 1.5: held at most one cell off |
 //! | friction identified shortens settling on high-friction plants | 0.987× linear-only | 0.984× | < 1 |
-//! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 1 (the linear-only variant, plant 24) | servo 0, all variants ≤ 1 |
+//! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 0 | 0, every variant (1 on seed 7's linear-only variant, plant 24, before the runaway test required |e| itself to grow) |
 //!
 //! What trips each: a servo without identification (clean falls to the frozen servo's ≈ 80 %,
 //! and the off-prior gain to 0), a placement off its poles (settling ratio), a hold rule that lets
@@ -69,11 +69,7 @@ fn the_servo_holds_up_on_the_plant_family() {
         assert!(s.high_friction >= 30, "seed {seed}: {}", s.high_friction);
         assert!(s.servo_samples > 10_000_000, "{}", s.servo_samples);
         assert_eq!(s.safe_stops_servo, 0, "seed {seed}: a false safe stop");
-        assert!(
-            s.safe_stops <= 1,
-            "seed {seed}: {} safe stops",
-            s.safe_stops
-        );
+        assert_eq!(s.safe_stops, 0, "seed {seed}: a false safe stop of a variant");
         assert!(
             s.high_friction_settling_ratio < 1.0,
             "seed {seed}: {}",

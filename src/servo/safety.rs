@@ -5,7 +5,9 @@
 //!
 //! # Triggers (per sample; e = r − y, Δy = y(k) − y(k−1), quanta)
 //! ```text
-//! runaway   N consecutive samples with |e| growing (e·Δe > 0, |Δe| ≥ 1) as the reading moves away
+//! runaway   N consecutive samples with |e| growing by a quantum or more (|e(k)| ≥ |e(k−1)| + 1: an
+//!           oscillation through the target, |e| shrinking at each crossing, never counts) as the
+//!           reading moves away
 //!           (e·Δy < 0: not a reference outrunning a slow sled) while the drive pushes toward the
 //!           reference (u·e > 0) or |Δe| > v_away, |e| growing in the second half of
 //!           them at least as much as in the first and by at least N/2 quanta (a sled braking
@@ -325,7 +327,9 @@ impl SafetyConfig {
         let same_sign = |a: bool, b: bool, x: i32| (a && x > 0) || (b && x < 0);
         let (e_pos, e_neg) = (e > 0, e < 0);
         let away = same_sign(e_neg, e_pos, dy_i16f16);
-        let growing = away && same_sign(e_pos, e_neg, de) && de.unsigned_abs() >= 1 << 16;
+        // |e| itself growing by a quantum: an oscillation through the target (e changing sign,
+        // |e| shrinking on the crossing) is not a runaway.
+        let growing = away && e.unsigned_abs() >= last_e.unsigned_abs().saturating_add(1 << 16);
         let pushing = same_sign(e_pos, e_neg, u.raw());
         let fast = de.unsigned_abs() > self.runaway_speed.unsigned_abs();
         if !(growing && (pushing || fast)) {
@@ -538,6 +542,36 @@ mod tests {
             c.check(&mut s, p(0), Some(p(0)), full, false, true),
             Some(StopReason::Fallbacks)
         );
+    }
+
+    /// A loop oscillating through its target (a period-4 cycle of ±17 / ±27 quanta, the drive
+    /// pushing toward the target every sample, as a prior several times off the sled's gain
+    /// drives it) is bounded, not a runaway, also when a new seek command moves the target away
+    /// from the sled mid-cycle: |e| shrinks at every crossing. A runaway test on the sign of Δe
+    /// alone counted every sample of the cycle and stopped the loop at the next command (family
+    /// seed 1, plant 95, in seek mode).
+    #[test]
+    fn an_oscillation_through_the_target_is_not_a_runaway() {
+        let c = cfg();
+        let mut s = SafetyState::new();
+        let (mut target, mut centre) = (0i64, 0i64);
+        for k in 0..4_000usize {
+            // The sled swings about `centre`; every 64 samples a new command 91 quanta away
+            // (the sled follows it from the next sample on).
+            centre = target;
+            if k % 64 == 0 && k > 0 {
+                target += if (k / 64) % 2 == 0 { -91 } else { 91 };
+            }
+            let swing = [17, 27, -17, -27][k % 4];
+            let y = centre - swing;
+            let e = target - y;
+            let u = SignalI16F16::from_raw(if e > 0 { 1 << 16 } else { -(1 << 16) });
+            assert_eq!(
+                c.check(&mut s, p(target), Some(p(y)), u, false, false),
+                None,
+                "{k}"
+            );
+        }
     }
 
     #[test]
