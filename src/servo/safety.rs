@@ -554,11 +554,11 @@ mod tests {
     fn an_oscillation_through_the_target_is_not_a_runaway() {
         let c = cfg();
         let mut s = SafetyState::new();
-        let (mut target, mut centre) = (0i64, 0i64);
+        let mut target = 0i64;
         for k in 0..4_000usize {
             // The sled swings about `centre`; every 64 samples a new command 91 quanta away
             // (the sled follows it from the next sample on).
-            centre = target;
+            let centre = target;
             if k % 64 == 0 && k > 0 {
                 target += if (k / 64) % 2 == 0 { -91 } else { 91 };
             }
