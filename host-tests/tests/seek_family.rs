@@ -11,7 +11,7 @@
 //! | measure | target | seek mode, seed 1 / 7 | reference-following, seed 1 / 7 |
 //! |---|---|---|---|
 //! | access / bound, median over all seeks | ≤ 1.5 | 1.43 / 1.38 | 6.10 / 5.70 |
-//! | access / bound, p95 | ≤ 2.5 | 8.0 / 10.0 | 26.0 / 20.7 |
+//! | access / bound, p95 | ≤ 2.5 | 8.0 / 9.7 | 26.0 / 20.7 |
 //! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.24 / 1.21 | 3.16 / 2.91 |
 //! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 89.0 % / 81.5 % | 84.0 % / 86.5 % |
 //! | nominal sled: median access, reference-following / seek mode | ≥ 3 | 27.3 / 5.0 ms = 5.45 | |
