@@ -69,7 +69,10 @@ fn the_servo_holds_up_on_the_plant_family() {
         assert!(s.high_friction >= 30, "seed {seed}: {}", s.high_friction);
         assert!(s.servo_samples > 10_000_000, "{}", s.servo_samples);
         assert_eq!(s.safe_stops_servo, 0, "seed {seed}: a false safe stop");
-        assert_eq!(s.safe_stops, 0, "seed {seed}: a false safe stop of a variant");
+        assert_eq!(
+            s.safe_stops, 0,
+            "seed {seed}: a false safe stop of a variant"
+        );
         assert!(
             s.high_friction_settling_ratio < 1.0,
             "seed {seed}: {}",

@@ -119,6 +119,9 @@ pub struct Faults {
     pub slow_jobs: Vec<u32>,
     /// Jobs whose background is late (delay L): their hand-overs miss.
     pub missed_jobs: Vec<u32>,
+    /// From this sample on, the sensor reads reversed: y mirrored about its reading at that
+    /// sample (a connector plugged in the wrong way; the safety layer must stop the servo).
+    pub reversed_sensor_from: Option<u32>,
 }
 
 impl Faults {
@@ -132,6 +135,7 @@ impl Faults {
             stalls: vec![900, 5_000, 9_000],
             slow_jobs: vec![2, 5],
             missed_jobs: vec![0, 1],
+            reversed_sensor_from: None,
         }
     }
 }
@@ -232,6 +236,8 @@ struct Lockstep<'a, 't> {
     mismatch: Option<Mismatch>,
     link_error: Option<String>,
     u_full_scale_v: f64,
+    /// The reading the reversed sensor mirrors about, once reversed.
+    pivot: Option<f64>,
 }
 
 impl Lockstep<'_, '_> {
@@ -243,6 +249,10 @@ impl Lockstep<'_, '_> {
 impl SledController for Lockstep<'_, '_> {
     fn step(&mut self, r_counts: f64, y_counts: f64) -> f64 {
         let k = self.records.len() as u32;
+        let y_counts = match self.faults.reversed_sensor_from {
+            Some(from) if k >= from => 2.0 * *self.pivot.get_or_insert(y_counts) - y_counts,
+            _ => y_counts,
+        };
         let kind = if self.faults.lost.contains(&k) {
             self.log.lost.push(k);
             Kind::Lost
@@ -359,6 +369,7 @@ pub fn run_loop(
         mismatch: None,
         link_error: None,
         u_full_scale_v: params.plant.u_max_v,
+        pivot: None,
     };
     while !lockstep.stopped() && twin.step(&mut lockstep).is_some() {}
     let mut summary = lockstep.reference.summary();
