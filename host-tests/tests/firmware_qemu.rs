@@ -37,6 +37,7 @@ use sledid_host::pil::fw_config::{
     self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame,
 };
 use sledid_host::pil::{self, Core, Faults, PilRun, Record};
+use sledid_host::twin::TwinParams;
 
 /// Seeks of the bench trace (`fixtures/pil_trace.bin`): seek, settle, hold, hand-overs.
 const TRACE_SEEKS: u32 = 3;
@@ -496,21 +497,27 @@ fn firmware_built() {
     }
 }
 
-/// The PIL run of `core` with the fault plan, and every check.
-fn pil_matches_host(core: Core) {
+/// The firmware of `core` (built once) under QEMU in the loop with the twin of `params`, seed
+/// [`pil::SEED`], with `faults`; QEMU works in a directory named after `name` and the core.
+fn run_pil(core: Core, params: &TwinParams, faults: &Faults, name: &str) -> PilRun {
     firmware_built();
-    let params = pil::twin_params(pil::SEEKS);
-    let faults = Faults::plan();
-    let dir = pil::firmware_target_dir().join(format!("test-pil-{}", core.name()));
-    let pil: PilRun = pil::run_pil(
+    let dir = pil::firmware_target_dir().join(format!("test-{name}-{}", core.name()));
+    pil::run_pil(
         core,
         &pil::firmware_elf(core),
-        &params,
+        params,
         pil::SEED,
-        &faults,
+        faults,
         &dir,
     )
-    .expect("the PIL run starts");
+    .expect("the PIL run starts")
+}
+
+/// The PIL run of `core` with the fault plan, and every check.
+fn pil_matches_host(core: Core) {
+    let params = pil::twin_params(pil::SEEKS);
+    let faults = Faults::plan();
+    let pil = run_pil(core, &params, &faults, "pil");
     println!(
         "{} ({}): {} samples in {:.2?}\n{}",
         core.name(),
@@ -616,22 +623,12 @@ const REVERSED_AT: u32 = 1_500;
 /// same frames, and the result line equal. Trips on firmware words without the safety layer, a
 /// stop that releases itself or leaves a drive, or a target that differs from the host.
 fn pil_stops_safely(core: Core) {
-    firmware_built();
     let params = pil::twin_params(4);
     let faults = Faults {
         reversed_sensor_from: Some(REVERSED_AT),
         ..Faults::default()
     };
-    let dir = pil::firmware_target_dir().join(format!("test-pil-stop-{}", core.name()));
-    let pil: PilRun = pil::run_pil(
-        core,
-        &pil::firmware_elf(core),
-        &params,
-        pil::SEED,
-        &faults,
-        &dir,
-    )
-    .expect("the PIL run starts");
+    let pil = run_pil(core, &params, &faults, "pil-stop");
     let run = &pil.run;
     assert!(
         run.link_error.is_none(),
