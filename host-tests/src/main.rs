@@ -56,7 +56,27 @@ enum Command {
     Demo(cmd::demo::Args),
 }
 
+/// A reader that closed the pipe (`sledid … | head`) ends the run quietly: writing to a closed
+/// stdout makes `println!` panic with "Broken pipe"; that one panic exits with success instead of
+/// a backtrace and status 101. Any other panic goes to the default hook.
+fn exit_quietly_on_a_closed_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    exit_quietly_on_a_closed_pipe();
     let cli = Cli::parse();
     let result = match cli
         .command

@@ -223,9 +223,10 @@ fn test() -> bool {
             cargo_in(b, &["fmt", "--check"])
                 && cargo_in(b, &["clippy", "--release", "--", "-D", "warnings"])
         })
-        // The library's docs: every intra-doc link resolves, nothing public links a private item.
+        // The library's and the harness's docs: every intra-doc link resolves, nothing public
+        // links a private item.
         && cargo_env(
-            &["doc", "--no-deps", "--lib", "-p", "sledid"],
+            &["doc", "--no-deps", "--lib", "-p", "sledid", "-p", "sledid-host"],
             &[("RUSTDOCFLAGS", "-D warnings")],
         )
         && fuzz(20_000)

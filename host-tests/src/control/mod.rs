@@ -7,7 +7,7 @@
 //! | module | job |
 //! |---|---|
 //! | [`design`] | the scheduled design from a prior plant's physics |
-//! | [`run`] | one closed-loop run: the servo's per-sample step behind the twin's controller interface |
+//! | [`mod@run`] | one closed-loop run: the servo's per-sample step behind the twin's controller interface |
 //! | [`summary`] | per-seek settling, overshoot, limit-cycle pulses, fallbacks, redesigns |
 //! | [`perturb`] | a plant scaled from a nominal one (`--perturb`, the seven variants) |
 //! | [`family`] | the seeded plant family |
@@ -49,7 +49,5 @@ pub use design::{
     design_from_prior, identifier_design, physical_model, scheduled_design, scheduled_design_for,
 };
 pub use perturb::{Perturbation, perturbed};
-pub use run::{
-    ControlRun, ControllerKind, ScheduledLoop, run, run_tuned, run_with, run_with_options,
-};
-pub use summary::{ControlSummary, RedesignCounts, Spread};
+pub use run::{ControlRun, ScheduledLoop, run, run_tuned, run_with, run_with_options};
+pub use summary::{ControlSummary, ControllerKind, RedesignCounts, Spread};

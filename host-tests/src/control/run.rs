@@ -1,7 +1,6 @@
 //! One closed-loop run on the twin: the baseline PID or the servo's per-sample step (controller,
 //! identifier, background redesign and hand-over) behind the twin's controller interface.
 
-use serde::Serialize;
 use sledid::control::{ControlFlags, Redesign, Region, ScheduledDesign};
 use sledid::ident::step::IdentifierDesign;
 use sledid::servo::{
@@ -9,22 +8,13 @@ use sledid::servo::{
 };
 
 use super::design::{identifier_design, scheduled_design_for};
-use super::summary::{ControlSummary, summarize};
+use super::summary::{ControlSummary, ControllerKind, summarize};
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
 use crate::twin::{PlantParams, SledController, Twin, TwinParams};
 
-/// Which controller closes the loop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ControllerKind {
-    /// The paper's badly tuned PID (the parameters' `controller` gains) in fixed point.
-    Baseline,
-    /// The gain-scheduled controller with the on-line identifier.
-    Scheduled,
-}
-
-/// interface; the redesign runs after the sample that requests it, as the firmware's main loop
-/// would before the next interrupt.
+/// The servo (the library's per-sample step: controller, identifier, safety layer, redesign
+/// hand-over) behind the twin's controller interface; the redesign runs after the sample that
+/// requests it, as the firmware's main loop would before the next interrupt.
 pub struct ScheduledLoop {
     /// The loop configuration (its controller gains swapped by redesigns).
     pub config: SledServo,
@@ -139,7 +129,7 @@ pub fn twin_safety(params: &TwinParams, design: &ScheduledDesign) -> SafetyDesig
 }
 
 /// Runs `seeks` random seeks of `params` with `kind` in the loop, the scheduled controller
-/// tuned on the default sled ([`scheduled_design`]).
+/// tuned on the default sled ([`super::design::scheduled_design`]).
 ///
 /// # Errors
 /// Twin or controller configuration errors.

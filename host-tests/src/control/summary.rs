@@ -4,8 +4,17 @@
 use serde::Serialize;
 use sledid::control::{ControlFlags, Redesign, Region};
 
-use super::run::ControllerKind;
 use crate::twin::{PlantParams, Twin};
+
+/// Which controller closed the loop of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// The paper's badly tuned PID (the parameters' `controller` gains) in fixed point.
+    Baseline,
+    /// The gain-scheduled controller with the on-line identifier.
+    Scheduled,
+}
 
 /// Median, 90th percentile and maximum.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
