@@ -5,6 +5,7 @@ pub mod closed_loop;
 pub mod compare;
 pub mod control;
 pub mod faults;
+pub mod figure;
 pub mod pacing;
 pub mod pil;
 pub mod plants;

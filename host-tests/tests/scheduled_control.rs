@@ -734,17 +734,8 @@ fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
     assert_eq!(s.seeks, 100);
     assert_eq!(s.unsettled, 0);
     let fine_max = usize::from(sledid::control::scheduled::rest::FINE_STEPS_MAX);
-    for (seek, st) in run.twin.seeks().iter().zip(run.twin.seek_stats()) {
-        let end = seek
-            .end_index
-            .unwrap_or(run.trace.len())
-            .min(run.trace.len());
-        let fine_started = (seek.start_index.max(1)..end)
-            .filter(|&k| {
-                let on = |k: usize| run.trace[k].1.contains(ControlFlags::FINE_STEP);
-                on(k) && !on(k - 1)
-            })
-            .count();
+    let fine = run.fine_steps_per_seek();
+    for ((seek, st), fine_started) in run.twin.seeks().iter().zip(run.twin.seek_stats()).zip(fine) {
         let pulses = st.limit_cycle.pulses;
         assert!(
             pulses <= fine_started.min(fine_max),

@@ -260,17 +260,7 @@ fn today_on_the_nominal_sled() {
     // Every pulse of the seek mode is a fine step (a sled at rest one cell off stepping toward
     // the target, at most `FINE_STEPS_MAX` per seek), never hunting.
     let fine_max = usize::from(sledid::control::scheduled::rest::FINE_STEPS_MAX);
-    let trace = &seek.run.trace;
-    for (row, span) in seek.rows.iter().zip(seek.run.twin.seeks()) {
-        let end = span.end_index.unwrap_or(trace.len()).min(trace.len());
-        let on = |k: usize| {
-            trace[k]
-                .1
-                .contains(sledid::control::ControlFlags::FINE_STEP)
-        };
-        let fine_started = (span.start_index.max(1)..end)
-            .filter(|&k| on(k) && !on(k - 1))
-            .count();
+    for (row, fine_started) in seek.rows.iter().zip(seek.run.fine_steps_per_seek()) {
         assert!(
             row.limit_cycle_pulses <= fine_started.min(fine_max),
             "{row:?}: {fine_started} fine steps"

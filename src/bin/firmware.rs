@@ -62,7 +62,6 @@ mod timing;
 mod target {
     use core::cell::RefCell;
 
-    use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::{SCB, SYST};
     use cortex_m_rt::{entry, exception};
     use critical_section::Mutex;
@@ -408,11 +407,7 @@ mod target {
             dwt.enable_cycle_counter();
         }
         let mut syst = cp.SYST;
-        syst.set_clock_source(SystClkSource::Core);
-        syst.set_reload(SYST_RELOAD);
-        syst.clear_current();
-        syst.enable_interrupt();
-        syst.enable_counter();
+        super::timing::start_sample_clock(&mut syst, SYST_RELOAD);
         // The handler owns SYST from here on; until the loop is built it does nothing.
         let Some(state) = install(config, link, syst) else {
             return false;

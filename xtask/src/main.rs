@@ -315,6 +315,25 @@ fn report_field(text: &str, key: &str, col: usize) -> String {
         .unwrap_or_else(|| "?".into())
 }
 
+/// Runs `count_insns.py` on `symbol` of `elf` for `arch` with `args` (init, calls, …), every
+/// call's argument the call index; its report, or `None` (the failure printed).
+fn count_insns(tool: &str, elf: &str, symbol: &str, arch: &str, args: &[&str]) -> Option<String> {
+    let out = Command::new("python3")
+        .args([tool, elf, symbol, "--arch", arch])
+        .args(args)
+        .args(["--args", "i"])
+        .output();
+    let Ok(out) = out else {
+        eprintln!("xtask: cannot run python3 {tool}");
+        return None;
+    };
+    if !out.status.success() {
+        eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+        return None;
+    }
+    Some(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
 /// Records of the PIL trace (`fixtures/pil_trace.bin`, 3 seeks of the twin).
 const TRACE_SAMPLES: &str = "2172";
 
@@ -352,30 +371,10 @@ fn cost_firmware() -> bool {
             ("sledid_fw_bench_redesign", "8"),
         ] {
             println!("\n==> python3 {tool} {elf} {f} --arch {arch} --calls {calls}");
-            let out = Command::new("python3")
-                .args([
-                    &tool,
-                    &elf,
-                    f,
-                    "--arch",
-                    arch,
-                    "--init",
-                    "sledid_fw_bench_init",
-                    "--calls",
-                    calls,
-                    "--args",
-                    "i",
-                ])
-                .output();
-            let Ok(out) = out else {
-                eprintln!("xtask: cannot run python3 {tool}");
+            let init = ["--init", "sledid_fw_bench_init", "--calls", calls];
+            let Some(text) = count_insns(&tool, &elf, f, arch, &init) else {
                 return false;
             };
-            let text = String::from_utf8_lossy(&out.stdout);
-            if !out.status.success() {
-                eprintln!("{}", String::from_utf8_lossy(&out.stderr));
-                return false;
-            }
             print!("{text}");
             rows.push(format!(
                 "| {arch} | {f} | {} / {} | {} / {} | {} |",
@@ -451,43 +450,15 @@ fn cost() -> bool {
         }
         let elf = format!("target/{target}/release/sledid-bench");
         for f in BENCH_FNS {
-            let out = Command::new("python3")
-                .args([
-                    &tool,
-                    &elf,
-                    f,
-                    "--arch",
-                    arch,
-                    "--init",
-                    "bench_init",
-                    "--warmup",
-                    "64",
-                    "--calls",
-                    "256",
-                    "--args",
-                    "i",
-                ])
-                .output();
-            let Ok(out) = out else {
-                eprintln!("xtask: cannot run python3 {tool}");
+            let init = ["--init", "bench_init", "--warmup", "64", "--calls", "256"];
+            let Some(text) = count_insns(&tool, &elf, f, arch, &init) else {
                 return false;
             };
-            let text = String::from_utf8_lossy(&out.stdout);
-            let field = |key: &str, col: usize| {
-                text.lines()
-                    .find(|l| l.trim_start().starts_with(key))
-                    .and_then(|l| l.split_whitespace().nth(col).map(str::to_owned))
-                    .unwrap_or_else(|| "?".into())
-            };
-            if !out.status.success() {
-                eprintln!("{}", String::from_utf8_lossy(&out.stderr));
-                return false;
-            }
             rows.push(format!(
                 "| {arch} | {f} | {} | {} | {} |",
-                field("instructions", 2),
-                field("est. cycles  ", 3),
-                field("stack used", 5)
+                report_field(&text, "instructions", 2),
+                report_field(&text, "est. cycles  ", 3),
+                report_field(&text, "stack used", 5)
             ));
         }
     }

@@ -34,7 +34,6 @@ use core::cell::RefCell;
 use core::convert::Infallible;
 
 use cortex_m::peripheral::SYST;
-use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use critical_section::Mutex;
 use defmt_rtt as _;
@@ -163,11 +162,7 @@ fn main() -> ! {
     dcb.enable_trace();
     dwt.enable_cycle_counter();
     let mut syst = cp.SYST;
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(SYST_RELOAD);
-    syst.clear_current();
-    syst.enable_interrupt();
-    syst.enable_counter();
+    timing::start_sample_clock(&mut syst, SYST_RELOAD);
     let Some(board) = cortex_m::singleton!(BOARD_STATE: Option<Board> = None) else {
         defmt::panic!("built twice");
     };

@@ -3,33 +3,24 @@
 //! region shaded behind), `sledid control-family`'s per-plant settling ratios and events, and
 //! `sledid seek`'s seek time versus distance and step responses.
 //!
-//! Text uses plotters' `ab_glyph` backend with the DejaVu Sans font embedded by `dejavu` (no
-//! system fonts), as the study's figures do.
+//! Font and legend box: [`crate::figure`], as the study's figures.
 
 use plotters::prelude::*;
 use std::path::Path;
-use std::sync::OnceLock;
 
 use super::family_eval::{FamilyReport, PlantResult, RunBrief};
 use super::run::ControlRun;
 use super::seek::family::{SeekBrief, SeekFamilyReport, SeekPlantResult};
 use super::seek::{SeekRow, SeekRun};
+use crate::figure::{FONT, font_ready, legend};
 use sledid::control::Region;
 
-const FONT: &str = "sans-serif";
 /// Shown window after the seek's start, ms.
 const WINDOW_MS: f64 = 60.0;
 /// Error axis, quanta.
 const E_RANGE: f64 = 12.0;
 /// Drive axis, V.
 const U_RANGE: f64 = 0.4;
-
-fn font_ready() -> bool {
-    static READY: OnceLock<bool> = OnceLock::new();
-    *READY.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular()).is_ok()
-    })
-}
 
 fn shade(region: Region) -> RGBAColor {
     match region {
@@ -137,12 +128,7 @@ pub fn plot_steps(run: &ControlRun, path: &Path, count: usize) -> Result<(), Str
             ))?
             .label("u (right axis, clipped)")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RGBColor(0, 114, 178)));
-            c.configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font((FONT, 12))
-                .position(SeriesLabelPosition::LowerRight)
-                .draw()?;
+            legend(&mut c, SeriesLabelPosition::LowerRight, 12, 0.8)?;
         }
         root.present()?;
         Ok(())
@@ -219,12 +205,7 @@ pub fn plot_family(report: &FamilyReport, path: &Path) -> Result<(), String> {
             .label(name)
             .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
         }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font((FONT, 12))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft, 12, 0.8)?;
         let mut e = ChartBuilder::on(&bottom)
             .caption(
                 "limit-cycle pulses + unsettled seeks per plant, plus one (log scale)",
@@ -249,12 +230,7 @@ pub fn plot_family(report: &FamilyReport, path: &Path) -> Result<(), String> {
             .label(name)
             .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
         }
-        e.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font((FONT, 12))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()?;
+        legend(&mut e, SeriesLabelPosition::UpperLeft, 12, 0.8)?;
         root.present()?;
         Ok(())
     };
@@ -343,12 +319,7 @@ pub fn plot_seek_distance(
                     .map(|r| Circle::new(point(r), 5, color.stroke_width(2))),
             )?;
         }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 13))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft, 13, 0.85)?;
         root.present()?;
         Ok(())
     };
@@ -469,12 +440,7 @@ pub fn plot_seek_steps(runs: &[&SeekRun], seeks: &[usize], path: &Path) -> Resul
                         color.stroke_width(1),
                     ))?;
                 }
-                c.configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font((FONT, 12))
-                    .position(SeriesLabelPosition::LowerRight)
-                    .draw()?;
+                legend(&mut c, SeriesLabelPosition::LowerRight, 12, 0.85)?;
             }
         }
         root.present()?;
@@ -565,12 +531,7 @@ pub fn plot_seek_family(report: &SeekFamilyReport, path: &Path) -> Result<(), St
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2)));
         }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 13))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()?;
+        legend(&mut c, SeriesLabelPosition::UpperRight, 13, 0.85)?;
         root.present()?;
         Ok(())
     };

@@ -117,6 +117,29 @@ pub struct ControlRun {
     pub first_stop: Option<(usize, StopReason)>,
 }
 
+impl ControlRun {
+    /// Per seek of the twin's schedule (in order, ended or not), the fine steps the scheduled
+    /// controller started in it: samples flagged `FINE_STEP` whose previous sample was not (0
+    /// for the baseline, which has no trace).
+    pub fn fine_steps_per_seek(&self) -> Vec<usize> {
+        let on = |k: usize| {
+            self.trace
+                .get(k)
+                .is_some_and(|(_, f)| f.contains(ControlFlags::FINE_STEP))
+        };
+        self.twin
+            .seeks()
+            .iter()
+            .map(|seek| {
+                let end = seek.end_index.unwrap_or(self.trace.len());
+                (seek.start_index.max(1)..end)
+                    .filter(|&k| on(k) && !on(k - 1))
+                    .count()
+            })
+            .collect()
+    }
+}
+
 /// The servo's safety layer on the twin `params`: [`ServoDesign::new`]'s for `design`, with soft
 /// end stops half the twin's travel beyond the farthest target it commands (quanta of the plant).
 pub fn twin_safety(params: &TwinParams, design: &ScheduledDesign) -> SafetyDesign {

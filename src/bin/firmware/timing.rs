@@ -8,6 +8,17 @@
 //! began (interrupt latency included): with SysTick on the core clock, core cycles.
 
 use cortex_m::peripheral::SYST;
+use cortex_m::peripheral::syst::SystClkSource;
+
+/// Programs SysTick for the sample period: the core clock, `reload` (ticks per period − 1), the
+/// counter cleared, its interrupt and the counter enabled.
+pub fn start_sample_clock(syst: &mut SYST, reload: u32) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(reload);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
 
 /// The handler's clocks.
 #[derive(Clone, Copy, Debug, Default)]

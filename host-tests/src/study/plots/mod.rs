@@ -20,7 +20,6 @@ use plotters::prelude::*;
 use serde::Serialize;
 use std::error::Error;
 use std::path::Path;
-use std::sync::OnceLock;
 
 pub mod curves;
 mod nonlinear;
@@ -46,7 +45,7 @@ pub struct PlotInfo {
 pub(super) type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 pub(super) type Drawn = Result<(), Box<dyn Error>>;
 
-pub(super) const FONT: &str = "sans-serif";
+pub(super) use crate::figure::{FONT, font_ready};
 const PANEL_W: u32 = 460;
 const PANEL_H: u32 = 400;
 /// Measured data.
@@ -55,14 +54,6 @@ pub(super) const MEASURED: RGBColor = RGBColor(30, 30, 30);
 pub(super) const MODEL: RGBColor = RGBColor(220, 50, 32);
 /// Input.
 pub(super) const INPUT: RGBColor = RGBColor(0, 114, 178);
-
-/// Registers DejaVu Sans with plotters once; false if the font could not be parsed.
-fn font_ready() -> bool {
-    static READY: OnceLock<bool> = OnceLock::new();
-    *READY.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular()).is_ok()
-    })
-}
 
 /// Draws every figure into `dir`.
 pub fn write_all(study: &Study, dir: &Path) -> Result<Vec<PlotInfo>, StudyError> {
@@ -163,13 +154,7 @@ pub(super) fn legend<'a, 'b: 'a, CT: plotters::coord::CoordTranslate>(
     c: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
     position: SeriesLabelPosition,
 ) -> Drawn {
-    c.configure_series_labels()
-        .position(position)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
+    crate::figure::legend(c, position, 13, 0.85)
 }
 
 /// The axes of a curve panel (the study's static maps, `curves::write_curves`): `caption` at
