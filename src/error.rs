@@ -104,6 +104,8 @@ pub enum ConfigError {
     SamplePeriod(f64),
     /// Full-scale drive not positive or not finite.
     FullScale(f64),
+    /// A signal range for the normalisation (its own unit) not positive or not finite.
+    SignalRange(f64),
     /// Controller output limit (V) not finite, not > 0, or not below 32,768 full scales.
     OutputLimit(f64),
     /// Proportional gain (V per quantum) not finite or |Kp/u_fs| ≥ 2¹⁵ per quantum.
@@ -207,6 +209,10 @@ impl fmt::Display for ConfigError {
             Self::FullScale(v) => write!(
                 f,
                 "u_max = {v}: the full-scale drive must be finite and > 0"
+            ),
+            Self::SignalRange(v) => write!(
+                f,
+                "signal range = {v}: the normalisation needs a finite range > 0"
             ),
             Self::OutputLimit(v) => write!(
                 f,

@@ -26,5 +26,5 @@ pub mod words;
 
 pub use error::{BoundaryError, ConfigError};
 pub use ident::status::Status;
-pub use num::boundary::{PositionI48F16, Sample, Scaling};
+pub use num::boundary::{Normalisation, PositionI48F16, Sample, Scaling};
 pub use num::fixed::{ParamI12F20, SignalI16F16};

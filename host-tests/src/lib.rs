@@ -4,6 +4,7 @@
 pub mod closed_loop;
 pub mod compare;
 pub mod control;
+pub mod excitation;
 pub mod faults;
 pub mod figure;
 pub mod pacing;

@@ -7,6 +7,15 @@
 //! error naming the sample ([`BadSample::Stop`], the default) or is held — written to the trace with
 //! `input_rejected`, estimator frozen for that sample, conditioning re-primed ([`BadSample::Hold`],
 //! what the firmware does). Faults can be injected ([`crate::faults`]).
+//!
+//! # Units
+//! The fixed-point path's formats are absolute, the user's units arbitrary: a nonlinear model is
+//! identified in normalised units ([`sledid::Normalisation`], [`Normalise`]): a first pass over
+//! the file takes the conditioned signals' largest magnitudes in the user's units, the boundary
+//! converts into units in which they are fixed targets, and the summary and the trace map θ, the
+//! signals and the simulation RMS back ([`crate::reference::units`]). The float64 twin runs on the
+//! same samples. The same recording in any unit replays the same samples, hence the same model
+//! (`tests/nonlinear_units.rs`).
 
 use crate::compare::relative_distance;
 use crate::faults::{Fault, Injector, Reading};
@@ -15,6 +24,7 @@ use crate::recording::{ReaderOptions, RecordingReader};
 use crate::reference::batch::{rms_error, simulate};
 use crate::reference::linear::LinearF64;
 use crate::reference::nonlinear::{self as nl64, NonlinearF64};
+use crate::reference::units::{ModelKind, factors, to_normalised, to_user};
 use serde_json::json;
 use sledid::ident::conditioning::Conditioning;
 use sledid::ident::estimator::{Estimator, EstimatorDesign};
@@ -22,7 +32,7 @@ use sledid::ident::linear::{LinearDesign, Structure};
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid::ident::step::{IdentifierDesign, StuckSensorDesign, reject, step};
-use sledid::{Scaling, Status};
+use sledid::{Normalisation, Scaling, Status};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -61,6 +71,36 @@ pub enum BadSample {
     Hold,
 }
 
+/// Whether the boundary normalises the units ([`sledid::Normalisation`], module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Normalise {
+    /// The user's units as given.
+    Off,
+    /// Ranges from a first pass over the file, the library's target octaves.
+    On,
+    /// `On` for the nonlinear models, `Off` for the linear ones (whose accuracy tests are
+    /// measured in the user's units).
+    Auto,
+    /// Ranges from a first pass, brought to these targets.
+    Targets {
+        /// The normalised position range.
+        y: f64,
+        /// The normalised drive range.
+        u: f64,
+    },
+    /// These units (a nonlinear model's linear start runs in its model's units).
+    Fixed(Units),
+}
+
+/// The units a replay's fixed-point path runs in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Units {
+    /// The boundary's conversion (the normalised units).
+    pub scaling: Scaling,
+    /// The normalised units relative to the user's.
+    pub norm: Normalisation,
+}
+
 /// Everything a replay needs besides the file.
 #[derive(Clone, Debug)]
 pub struct ReplaySpec {
@@ -95,6 +135,8 @@ pub struct ReplaySpec {
     pub on_bad_sample: BadSample,
     /// Stuck-sensor detection.
     pub stuck_sensor: Option<StuckSensorDesign>,
+    /// Units at the boundary.
+    pub normalise: Normalise,
 }
 
 impl ReplaySpec {
@@ -120,6 +162,7 @@ impl ReplaySpec {
             faults: Vec::new(),
             on_bad_sample: BadSample::Stop,
             stuck_sensor: None,
+            normalise: Normalise::Auto,
         }
     }
 }
@@ -176,12 +219,84 @@ pub struct ReplaySummary {
     pub sim_rms_f64: f64,
     /// Count of every status flag.
     pub flags: std::collections::BTreeMap<String, usize>,
+    /// The boundary's unit change [k_y, k_u]: the estimator ran on y/k_y, u/k_u; θ, the RMS and
+    /// the trace are mapped back to the user's units.
+    pub normalisation: [f64; 2],
     /// Lateness statistics (paced replays only).
     pub deadline: Option<Deadlines>,
-    /// Largest |u_c|, |y_c|, |Δy_c| of the conditioned data (what a nonlinear model's neurons are
-    /// initialised for).
+    /// Largest |u_c|, |y_c|, |Δy_c| of the conditioned data in the units the estimator ran in
+    /// (normalised; what a nonlinear model's neurons are initialised for).
     #[serde(skip)]
     pub ranges: InputRanges,
+    /// θ in the units the estimator ran in.
+    #[serde(skip)]
+    pub theta_normalised: Vec<f64>,
+}
+
+/// The conditioned signals' largest magnitudes in the recording's own units (y in the y column's,
+/// u in the u column's): a pass over `file` with the same reader, conditioning in float64. Rows
+/// the boundary would reject (not finite) are skipped; the replay itself reports them.
+///
+/// # Errors
+/// The reader's error naming the line.
+pub fn signal_ranges(file: &Path, spec: &ReplaySpec) -> Result<(f64, f64), String> {
+    let reader = RecordingReader::open(file, &spec.reader).map_err(|e| e.to_string())?;
+    let (mut y_max, mut u_max) = (0.0f64, 0.0f64);
+    let mut prev: Option<(f64, f64)> = None;
+    for item in reader {
+        let s = item.map_err(|e| e.to_string())?;
+        let (y, u, r) = (s.y, s.u, s.r.unwrap_or(0.0));
+        if !(y.is_finite() && u.is_finite() && r.is_finite()) {
+            prev = None;
+            continue;
+        }
+        let (yc, uc) = match spec.conditioning {
+            Conditioning::None => (Some(y), u),
+            Conditioning::CentredOnReference => (Some(y - r), u),
+            Conditioning::DifferencedOutput => (prev.map(|(py, _)| y - py), u),
+            Conditioning::Differenced => {
+                (prev.map(|(py, _)| y - py), prev.map_or(0.0, |p| u - p.1))
+            }
+        };
+        prev = Some((y, u));
+        y_max = y_max.max(yc.map_or(0.0, f64::abs));
+        u_max = u_max.max(uc.abs());
+    }
+    Ok((y_max, u_max))
+}
+
+/// The units `spec` asks for on `file`, for a nonlinear model or not. Normalised units are
+/// computed from the recording's own ranges (range / target in the column's unit), not from the
+/// user's: the same file in any `y_unit` or `u_full_scale` gives the same boundary, bit for bit.
+///
+/// # Errors
+/// The reader's error, or the configuration's (a signal that is zero throughout cannot be
+/// normalised).
+pub fn units(file: &Path, spec: &ReplaySpec, nonlinear: bool) -> Result<Units, String> {
+    let user =
+        Scaling::new(spec.y_unit, spec.u_full_scale).map_err(|e| format!("configuration: {e}"))?;
+    let targets = match spec.normalise {
+        Normalise::Off => None,
+        Normalise::Auto if !nonlinear => None,
+        Normalise::Fixed(u) => return Ok(u),
+        Normalise::On | Normalise::Auto => Some((
+            sledid::num::boundary::Y_TARGET,
+            sledid::num::boundary::U_TARGET,
+        )),
+        Normalise::Targets { y, u } => Some((y, u)),
+    };
+    let Some((ty, tu)) = targets else {
+        return Ok(Units {
+            scaling: user,
+            norm: Normalisation::NONE,
+        });
+    };
+    let (y, u) = signal_ranges(file, spec)?;
+    let bad = |e: sledid::ConfigError| format!("{}: normalisation: {e}", file.display());
+    let norm = Normalisation::for_ranges_to(y / spec.y_unit, u / spec.u_full_scale, ty, tu)
+        .map_err(bad)?;
+    let scaling = Scaling::new(y / ty, u / tu).map_err(bad)?;
+    Ok(Units { scaling, norm })
 }
 
 /// Replays `file` into `out` (created if needed).
@@ -255,8 +370,10 @@ fn replay_linear<const N: usize>(
     spec: &ReplaySpec,
     out: &Path,
 ) -> Result<ReplaySummary, String> {
+    let units = units(file, spec, false)?;
+    let norm = units.norm;
     let mut model = LinearDesign::<N>::new(spec.structure, spec.order.0, spec.order.1);
-    model.rls = spec.rls;
+    model.rls = normalised_rls(spec.rls, norm);
     let reference = LinearReference {
         model: LinearF64::new(&model),
         na: spec.order.0,
@@ -265,7 +382,15 @@ fn replay_linear<const N: usize>(
         "{:?}({},{}) conditioning {:?}",
         spec.structure, spec.order.0, spec.order.1, spec.conditioning
     );
-    replay_model(file, spec, out, model, reference, label)
+    let kind = ModelKind::Linear { na: spec.order.0 };
+    replay_model(file, spec, out, model, reference, label, (units, kind))
+}
+
+/// The RLS settings in signal units (dead zone, outlier gate) moved into the normalised units.
+fn normalised_rls(mut rls: RlsDesign, norm: Normalisation) -> RlsDesign {
+    rls.dead_zone /= norm.y_factor();
+    rls.outlier_threshold /= norm.y_factor();
+    rls
 }
 
 fn replay_nonlinear<const N: usize>(
@@ -275,8 +400,10 @@ fn replay_nonlinear<const N: usize>(
     structure: NonlinearStructure,
 ) -> Result<ReplaySummary, String> {
     let na = structure.na();
+    let units = units(file, spec, true)?;
+    let norm = units.norm;
     let (linear, ranges) = match &spec.nonlinear_init {
-        Some(l) => (l.clone(), None),
+        Some(l) => (to_normalised(ModelKind::Linear { na }, l, norm), None),
         None => {
             let mut first = spec.clone();
             first.nonlinear = None;
@@ -284,9 +411,10 @@ fn replay_nonlinear<const N: usize>(
             first.order = (na, na);
             first.rate = Rate::Max;
             first.progress = false;
+            first.normalise = Normalise::Fixed(units);
             let dir = out.join("linear-init");
             let s = replay(file, &first, &dir)?;
-            (s.theta, Some(s.ranges))
+            (s.theta_normalised, Some(s.ranges))
         }
     };
     let ranges = ranges.unwrap_or(InputRanges {
@@ -295,7 +423,7 @@ fn replay_nonlinear<const N: usize>(
         dy: 1.0,
     });
     let mut model = NonlinearDesign::<N>::from_linear(structure, &linear, ranges);
-    model.rls = spec.rls;
+    model.rls = normalised_rls(spec.rls, norm);
     let reference = NonlinearReference {
         model: NonlinearF64::new(&model),
         structure,
@@ -306,7 +434,8 @@ fn replay_nonlinear<const N: usize>(
         linear,
         spec.conditioning
     );
-    replay_model(file, spec, out, model, reference, label)
+    let kind = ModelKind::Nonlinear(structure);
+    replay_model(file, spec, out, model, reference, label, (units, kind))
 }
 
 /// The `p`-quantile (0 ≤ p ≤ 1) of ascending `sorted` by nearest rank: the element of 0-based rank
@@ -326,13 +455,16 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
     model: D,
     mut reference: R,
     label: String,
+    (units, kind): (Units, ModelKind),
 ) -> Result<ReplaySummary, String> {
+    let (scaling, norm) = (units.scaling, units.norm);
     let mut design = IdentifierDesign::new(spec.conditioning, model);
-    design.stuck_sensor = spec.stuck_sensor;
+    design.stuck_sensor = spec.stuck_sensor.map(|mut d| {
+        d.min_drive /= norm.u_factor();
+        d
+    });
     let mut injector = Injector::new(spec.faults.clone());
     let cfg = design.build().map_err(|e| format!("configuration: {e}"))?;
-    let scaling =
-        Scaling::new(spec.y_unit, spec.u_full_scale).map_err(|e| format!("configuration: {e}"))?;
     let needs_r = spec.conditioning == Conditioning::CentredOnReference;
     if needs_r && spec.reader.mapping.reference.is_none() {
         return Err("conditioning centred-on-reference needs a reference column (r=…)".into());
@@ -363,6 +495,9 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
     .map_err(|e| e.to_string())?;
 
     let mut st = cfg.new_state();
+    // The trace and the summary are in the user's units (module doc, *Units*).
+    let (ky, ku) = (norm.y_factor(), norm.u_factor());
+    let theta_k = factors(kind, N, norm);
     let (mut ys, mut us) = (Vec::new(), Vec::new());
     let mut counts = [0usize; Status::NAMES.len()];
     // The reader streams, so the length is unknown: a counter, on terminals only.
@@ -445,17 +580,22 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
             ys.push(o.y.to_f64());
             us.push(o.u.to_f64());
         }
-        let th: Vec<String> = o.theta.iter().map(|p| p.to_f64().to_string()).collect();
+        let th: Vec<String> = o
+            .theta
+            .iter()
+            .zip(&theta_k)
+            .map(|(p, k)| (p.to_f64() * k).to_string())
+            .collect();
         writeln!(
             trace,
             "{},{},{},{},{},{},{},{},{}",
             s.t_s,
             s.u,
             s.y,
-            o.y.to_f64(),
-            o.u.to_f64(),
-            o.y_hat.to_f64(),
-            o.eps.to_f64(),
+            o.y.to_f64() * ky,
+            o.u.to_f64() * ku,
+            o.y_hat.to_f64() * ky,
+            o.eps.to_f64() * ky,
             th.join(","),
             o.status.bits()
         )
@@ -527,11 +667,13 @@ fn replay_model<const N: usize, D: EstimatorDesign<N>, R: Reference<N>>(
         wall_s,
         model: label,
         theta_rel_err: relative_distance(&theta, &theta_f64),
-        sim_rms: rms_error(&reference.simulate(&theta, &us), &ys),
-        sim_rms_f64: rms_error(&reference.simulate(&theta_f64, &us), &ys),
+        sim_rms: rms_error(&reference.simulate(&theta, &us), &ys) * ky,
+        sim_rms_f64: rms_error(&reference.simulate(&theta_f64, &us), &ys) * ky,
         ranges,
-        theta,
-        theta_f64,
+        theta: to_user(kind, &theta, norm),
+        theta_f64: to_user(kind, &theta_f64, norm),
+        theta_normalised: theta,
+        normalisation: [ky, ku],
         flags: Status::NAMES
             .iter()
             .zip(counts.iter())

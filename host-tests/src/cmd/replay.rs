@@ -57,6 +57,11 @@ pub struct Args {
     /// Consecutive outliers after which the gate reopens.
     #[arg(long, default_value_t = 16)]
     outlier_limit: u16,
+    /// Units at the boundary: `auto` normalises for the nonlinear models (ranges from a first pass
+    /// over the file become fixed targets; θ, trace and RMS reported in your units), `on` for
+    /// every model, `off`, or the targets `Y,U` (the normalised ranges of y and u).
+    #[arg(long, default_value = "auto")]
+    normalise: String,
     /// Stuck-sensor check: samples of unchanged y while driven (0: off).
     #[arg(long, default_value_t = 0)]
     stuck_samples: u32,
@@ -86,7 +91,7 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<(), String> {
     use rayon::prelude::*;
     use sledid_host::recording::ReaderOptions;
-    use sledid_host::replay::{ReplaySpec, replay};
+    use sledid_host::replay::{Normalise, ReplaySpec, replay};
     let mapping = a.columns.parse().map_err(|e| format!("--columns: {e}"))?;
     let mut reader = ReaderOptions::new(mapping);
     reader.ts_s = a.ts;
@@ -125,6 +130,22 @@ pub fn run(a: &Args) -> Result<(), String> {
         "differenced" => Conditioning::Differenced,
         "none" => Conditioning::None,
         _ => Conditioning::DifferencedOutput,
+    };
+    spec.normalise = match a.normalise.as_str() {
+        "auto" => Normalise::Auto,
+        "on" => Normalise::On,
+        "off" => Normalise::Off,
+        t => {
+            let v: Vec<f64> = t
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("--normalise `{t}`: expected auto, on, off or Y,U"))?;
+            let [y, u] = v[..] else {
+                return Err(format!("--normalise `{t}`: expected auto, on, off or Y,U"));
+            };
+            Normalise::Targets { y, u }
+        }
     };
     spec.y_unit = a.y_unit;
     spec.u_full_scale = a.u_full_scale;

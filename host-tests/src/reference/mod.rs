@@ -10,6 +10,8 @@
 //!   fit on the simulation error.
 //! - [`scheduled::ScheduledF64`]: the gain-scheduled controller (regions, supervisor, transfers,
 //!   pole placement, exact inverse input map) against which `sledid::control::scheduled` is measured.
+//! - [`units`]: a model identified in normalised units ([`sledid::Normalisation`]) mapped to the
+//!   user's units and back, exactly.
 //! - [`batch`]: batch least squares and simulation of a linear model (the exact optimum and the
 //!   simulation RMS reported by the study).
 
@@ -23,3 +25,4 @@ pub mod nonlinear_batch;
 pub mod rls;
 pub mod scheduled;
 pub mod seek;
+pub mod units;
