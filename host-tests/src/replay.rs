@@ -71,6 +71,12 @@ pub enum BadSample {
     Hold,
 }
 
+/// The covariance's trace bound the CLI gives a nonlinear model by default: in normalised units θ
+/// is of order 1, and a bound of 0.3 keeps a neuron's unidentifiable directions (w near 0, a bias
+/// in saturation) from wandering — the wandering is what made the float64 twin itself ill-posed.
+/// Measured over the 165 cases of `tests/nonlinear_units.rs` (doc there).
+pub const NONLINEAR_TRACE_LIMIT: f64 = 0.3;
+
 /// Whether the boundary normalises the units ([`sledid::Normalisation`], module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Normalise {

@@ -45,9 +45,10 @@ pub struct Args {
     /// Initial covariance P₀ = p0·I.
     #[arg(long, default_value_t = 10.0)]
     p0: f64,
-    /// Trace limit on P (0: none).
-    #[arg(long, default_value_t = 100.0)]
-    trace_limit: f64,
+    /// Trace limit on P (0: none) [default: 100 for the linear models in your units; 0.3 for the
+    /// nonlinear ones, in normalised units where θ is of order 1 (tests/nonlinear_units.rs)].
+    #[arg(long)]
+    trace_limit: Option<f64>,
     /// Dead zone on |ε| in y units (0: none).
     #[arg(long, default_value_t = 0.0)]
     dead_zone: f64,
@@ -149,12 +150,17 @@ pub fn run(a: &Args) -> Result<(), String> {
     };
     spec.y_unit = a.y_unit;
     spec.u_full_scale = a.u_full_scale;
+    let trace_limit = a.trace_limit.unwrap_or(if spec.nonlinear.is_some() {
+        sledid_host::replay::NONLINEAR_TRACE_LIMIT
+    } else {
+        100.0
+    });
     spec.rls = RlsDesign {
         lambda: a.lambda,
         p0: a.p0,
         dead_zone: a.dead_zone,
-        anti_windup: if a.trace_limit > 0.0 {
-            AntiWindup::TraceLimit { max: a.trace_limit }
+        anti_windup: if trace_limit > 0.0 {
+            AntiWindup::TraceLimit { max: trace_limit }
         } else {
             AntiWindup::None
         },
