@@ -9,31 +9,40 @@
 //!
 //! A recursive prediction-error fit of a neuron is not always a well-posed computation: on some
 //! records the float64 twin itself ends at a model whose simulation RMS moves by several per cent
-//! when the data move by one part in 10⁶ (a neuron's output weight passing through 0, where its
-//! input weight and bias are not identifiable; a bias drifting into saturation). There no
-//! finite-precision implementation can stay within 2 % of it, so each case is first checked for
-//! that: the float64 twin is run again with the normalisation target moved by 10⁻⁶ and the case
-//! counts as *well-posed* when its RMS moves by less than 0.5 % and its static map by less than
-//! 0.0125 of its span. How many are well-posed depends on the covariance bound in normalised units
-//! ([`NONLINEAR_TRACE_LIMIT`]), measured over these 165 cases (well-posed, of them outside 2 % /
-//! 0.05), real recordings | generated:
+//! when the data move slightly (a neuron's output weight passing through 0, where its input weight
+//! and bias are not identifiable and the path picks one of the two mirror solutions (w, a, c) ~
+//! (−w, −a, −c); a bias drifting into saturation). There no finite-precision implementation can
+//! stay within 2 % of it, so each case is first checked for that: the float64 twin is run again
+//! with the normalisation's targets moved by ±10⁻⁴ (y up and u down, then the reverse — the size
+//! of the fixed point's own departure from the twin in θ, 10⁻⁴–10⁻³, is what matters; 10⁻⁶ missed
+//! mirror-solution splits) and the case counts as *well-posed* when its RMS moves by less than
+//! 0.5 % and its static map by less than 0.0125 of its span both times.
 //!
-//! | trace bound | real (45) | generated (120) |
+//! The covariance bound in normalised units ([`NONLINEAR_TRACE_LIMIT`]) decides how many cases are
+//! well-posed; measured over the 165 cases (`cargo test --release -p sledid-host --test
+//! nonlinear_units -- --nocapture` prints every one): well-posed and, of them, outside 2 % / 0.05,
+//! real (45) | generated (120):
+//!
+//! | trace bound | real | generated |
 //! |---|---|---|
-//! | 100 (the linear models' default) | 25, 1 outside | 79, 9 outside (NOE221 −37 %, eq. 6 +23 %, Hammerstein +25 %, …) |
-//! | 10 | 32, 3 | 87, 4 |
-//! | 1 | 36, 4 | 103, 2 |
-//! | **0.3** | **41, 2 (EMPS eq. 6 −6.6 %, EMPS Wiener +14.6 %)** | **103, 0** |
-//! | 0.1 | 43, 3 | 110, 4 |
+//! | 100 (the linear models' default) | 20, 1 outside (EMPS eq. 6 +2.8 %) | 66, 5 outside (eq. 6 +23 %, Hammerstein +25 %, −6 %, −4 %, a map 0.11 apart) |
+//! | 10 | 23, 1 (EMPS eq. 6 +39 %) | 67, 3 |
+//! | 1 | 30, 2 (EMPS) | 98, 1 |
+//! | **0.3** | **37, 1 (EMPS Wiener +14.6 %)** | **95, 0** |
+//! | 0.1 | 39, 3 (EMPS) | 101, 0 |
 //!
-//! (`cargo test --release -p sledid-host --test nonlinear_units -- --nocapture` prints every
-//! case.) The tests assert the 0.3 row: every well-posed case within 2 % and 0.05 but EMPS's, and
-//! the well-posed counts (a change that made the estimator itself chaotic would otherwise hide
-//! among the ill-posed). EMPS is outside because of a discontinuity, not precision: on its
-//! velocity data the first-order denominator sits at 0.996–0.998 and the stability projection
-//! halves a whole update when it would leave the unit circle; a proposed pole within rounding of
-//! the circle is halved by one twin and not by the other (sample ~100: every parameter's step
-//! differs by 2×), and the paths part. Issue 17's "within 2 % on all" is not met there.
+//! EMPS stays outside for a reason that is not precision: on its velocity data the first-order
+//! pole sits at 0.996–0.998, and the stability projection halves a step that would leave the unit
+//! circle — a discontinuity: a proposal within rounding of the circle is halved by one twin and
+//! not by the other (sample ~100), every parameter's step then differs by 2× and the paths part.
+//! Shortening the step to the boundary instead (continuous) brought EMPS's five structures within
+//! 0.5 % but moved the matched-plant tests (`tests/nonlinear.rs`: eq. 5 on-line 0.4555 against a
+//! batch optimum of 0.2805 with the step on the boundary, friction 0.3717 against 0.3067 half-way
+//! to it), so the halving stays.
+//!
+//! The tests assert the 0.3 row: every well-posed case within 2 % and 0.05 except EMPS's (issue
+//! 17's "within 2 % on all" is not met there), and at least three in four cases well-posed (a
+//! change that made the estimator itself chaotic would otherwise hide among the ill-posed).
 
 use rayon::prelude::*;
 use sledid::ident::conditioning::Conditioning;
@@ -229,20 +238,29 @@ fn normalisation_of(sum: &ReplaySummary) -> sledid::Normalisation {
 fn compare(case: &Case, s: NonlinearStructure) -> [f64; 4] {
     let spec = case.spec(s);
     let sum = case.run(&spec, "nominal");
-    let mut moved = spec.clone();
-    moved.normalise = Normalise::Targets {
-        y: sledid::num::boundary::Y_TARGET * (1.0 + 1e-6),
-        u: sledid::num::boundary::U_TARGET,
-    };
-    let other = case.run(&moved, "moved");
     let kind = ModelKind::Nonlinear(s);
     let fx_user =
         sledid_host::reference::units::to_user(kind, &sum.theta_normalised, normalisation_of(&sum));
+    // The float64 twin's own moves, the larger of two perturbations of opposite sign.
+    let (mut own, mut own_shape) = (0.0f64, 0.0f64);
+    for (i, d) in [1e-4, -1e-4].into_iter().enumerate() {
+        let mut moved = spec.clone();
+        moved.normalise = Normalise::Targets {
+            y: sledid::num::boundary::Y_TARGET * (1.0 + d),
+            u: sledid::num::boundary::U_TARGET * (1.0 - d),
+        };
+        let other = case.run(&moved, &format!("moved{i}"));
+        let m = other.sim_rms_f64 / sum.sim_rms_f64 - 1.0;
+        if m.abs() > own.abs() {
+            own = m;
+        }
+        own_shape = own_shape.max(shape_error(s, &sum, &other.theta_f64));
+    }
     [
         sum.sim_rms / sum.sim_rms_f64 - 1.0,
         shape_error(s, &sum, &fx_user),
-        other.sim_rms_f64 / sum.sim_rms_f64 - 1.0,
-        shape_error(s, &sum, &other.theta_f64),
+        own,
+        own_shape,
     ]
 }
 
@@ -352,7 +370,7 @@ fn fixed_point_tracks_float64_on_real_recordings() {
     ];
     cases.extend((1..=4).map(twin));
     let (outside, posed) = check(&cases);
-    assert!(posed >= 40, "{posed} of 45 well-posed");
+    assert!(posed * 4 >= cases.len() * 5 * 3, "{posed} well-posed");
     assert!(
         outside.iter().all(|c| c.starts_with("emps")),
         "outside: {outside:?}"
@@ -391,6 +409,6 @@ fn fixed_point_tracks_float64_under_any_excitation() {
         }
     }
     let (outside, posed) = check(&cases);
-    assert!(posed >= 100, "{posed} of 120 well-posed");
+    assert!(posed * 4 >= cases.len() * 5 * 3, "{posed} well-posed");
     assert!(outside.is_empty(), "outside: {outside:?}");
 }
