@@ -241,16 +241,24 @@ impl Score {
         self.n.push(y.len().saturating_sub(RMS_START));
     }
 
+    /// A fold that scores no model.
+    fn skip(&mut self) {
+        self.sse.push(f64::NAN);
+        self.n.push(0);
+    }
+
     fn rms(&self) -> Criterion {
         let rms = |sse: f64, n: usize| {
             if n == 0 {
-                f64::INFINITY
+                f64::NAN
             } else {
                 (sse / n as f64).sqrt()
             }
         };
+        let used = || self.sse.iter().zip(&self.n).filter(|(_, n)| **n > 0);
+        let total = rms(used().map(|x| x.0).sum(), used().map(|x| x.1).sum());
         Criterion {
-            rms: rms(self.sse.iter().sum(), self.n.iter().sum()),
+            rms: if total.is_nan() { f64::INFINITY } else { total },
             folds: self
                 .sse
                 .iter()
@@ -261,7 +269,9 @@ impl Score {
     }
 }
 
-/// A model's criterion: the held-out simulation RMS over all folds and per fold, y unit.
+/// A model's criterion: the held-out simulation RMS over all folds and per fold, y unit. A fold
+/// whose training part the linear models cannot be fitted on (no excitation) scores no model:
+/// NaN in `folds` (null in study.json), left out of `rms`; ∞ when no fold scores.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Criterion {
     /// Over every held-out sample.
@@ -290,17 +300,23 @@ pub fn cross_validate(
     for (fold, (train, test)) in blocks.into_iter().enumerate() {
         let (y, u) = (&ident.y[train.clone()], &ident.u[train]);
         let (yv, uv) = (&ident.y[test.clone()], &ident.u[test]);
+        let mut arx: [Option<LinearModel>; 2] = [None, None];
         let mut oe: [Option<LinearModel>; 2] = [None, None];
         for order in 1..=2 {
-            let arx = fit_arx(order, y, u);
-            let o = arx
+            arx[order - 1] = fit_arx(order, y, u);
+            oe[order - 1] = arx[order - 1]
                 .as_ref()
                 .and_then(|a| fit_oe(order, y, u, a))
                 .map(|f| f.model);
-            for (i, m) in [(order - 1, &arx), (order + 1, &o)] {
-                lin[i].add(yv, m.as_ref().map(|m| m.simulate(uv, yv)).as_deref());
-            }
-            oe[order - 1] = o;
+        }
+        if arx.iter().chain(&oe).any(Option::is_none) {
+            // A part without excitation (e.g. a window that is flat at its end): the linear
+            // models cannot be fitted on it, so it scores no model.
+            lin.iter_mut().chain(nl.iter_mut()).for_each(Score::skip);
+            continue;
+        }
+        for (i, m) in arx.iter().chain(&oe).enumerate() {
+            lin[i].add(yv, m.as_ref().map(|m| m.simulate(uv, yv)).as_deref());
         }
         for (i, s) in NonlinearStructure::ALL.into_iter().enumerate() {
             let fitted = oe[s.na() - 1]
