@@ -261,6 +261,27 @@ fn study_json_has_every_key() {
         for key in ["ts_s", "samples_ident", "samples_valid", "centre_ident_q"] {
             assert!(r.get(key).is_some(), "{rate}: missing {key}");
         }
+        // The recommendation: a model of this rate, its criterion, and the best linear model.
+        let rec = &r["recommended"];
+        for key in [
+            "model",
+            "criterion",
+            "value",
+            "best_linear",
+            "best_linear_value",
+            "margin",
+        ] {
+            assert!(rec.get(key).is_some(), "{rate}: recommended.{key}");
+        }
+        let named = rec["model"].as_str().unwrap();
+        assert!(
+            ["models", "nonlinear"].iter().any(|k| r[k]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|m| m["name"] == named && m["cv"]["rms"] == rec["value"])),
+            "{rate}: {rec}"
+        );
         for key in [
             "pole_axis",
             "b1_axis",
@@ -290,6 +311,7 @@ fn study_json_has_every_key() {
                 "samples_ident",
                 "samples_per_param",
                 "fpe",
+                "cv",
                 "fit",
             ] {
                 assert!(m.get(key).is_some(), "{rate} {}: missing {key}", m["name"]);
@@ -454,7 +476,7 @@ fn a_file_study_labels_its_unit_and_shows_no_twin_reference() {
             "{table}"
         );
         assert!(!table.contains("findings"), "{table}");
-        assert_eq!(table_columns(&table).len(), 9, "{table}");
+        assert_eq!(table_columns(&table).len(), 10, "{table}");
         assert!(study.reference.iter().all(|r| {
             r.findings_rms_sim_valid_ts.is_none() && r.findings_rms_sim_valid_dec2.is_none()
         }));
@@ -478,8 +500,16 @@ fn a_twin_study_is_in_quanta_with_its_reference_columns() {
     assert_eq!(study.y_unit_name, "quanta");
     assert!(table.contains("| model (RMS in quanta) |"), "{table}");
     let columns = table_columns(&table);
-    assert_eq!(columns.len(), 11, "{table}");
+    assert_eq!(columns.len(), 12, "{table}");
     assert_eq!(columns[3], "twin's reference (findings.md) Ts");
+    assert_eq!(columns[8], "CV RMS ident (Ts, ÷2)");
+    // The recommended model: one ★ per rate in the table, and its line under it.
+    let rec = study.at_ts.recommended.as_ref().unwrap();
+    assert!(
+        table.contains(&format!("★ recommended at Ts: {} (", rec.model)),
+        "{table}"
+    );
+    assert_eq!(table.matches(" ★ |").count(), 2, "{table}");
     assert!(
         table.contains("| 6.38 | 1.01 |"),
         "ARX1's findings figures: {table}"

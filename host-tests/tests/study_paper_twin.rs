@@ -60,7 +60,7 @@ fn paper_findings_hold_on_the_default_twin() {
         "settling samples in the 100-sample window: {settle:?}; ARX1 ≫ OE1 at Ts {}/{SEEDS}, ARX1 better after ÷2 {}/{SEEDS}, OE2 < OE1 {}/{SEEDS}, Wiener1 < OE1 at Ts {}/{SEEDS}",
         counts[0], counts[1], counts[2], counts[3]
     );
-    // Measured (seeds 1–8): 37–100 samples, median 84; every finding 8/8; Wiener1 < OE1 on 3/8.
+    // Measured (seeds 1–8): 37–100 samples, median 84; every finding 8/8; Wiener1 < OE1 on 2/8.
     assert!(settle[settle.len() / 2] >= 60, "{settle:?}");
     assert_eq!(
         counts[0], SEEDS as usize,

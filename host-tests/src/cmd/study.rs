@@ -56,6 +56,13 @@ pub struct Args {
     /// criterion); pulls the neurons toward the linear start on short records.
     #[arg(long, default_value_t = 0.0)]
     ridge: f64,
+    /// Seeded random starts of each nonlinear fit besides the linear start (the fit with the
+    /// lowest identification SSE, plus the ridge term, is kept).
+    #[arg(long, default_value_t = 4)]
+    starts: usize,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 1)]
+    start_seed: u64,
     /// Output directory: study.json, fig*.png (and twin.csv with `--twin`).
     #[arg(long, default_value = "out/study")]
     out: PathBuf,
@@ -70,6 +77,8 @@ pub fn run(a: &Args) -> Result<(), String> {
     let options = StudyOptions {
         centring: a.centre,
         nonlinear_ridge: a.ridge,
+        random_starts: a.starts,
+        start_seed: a.start_seed,
         ..StudyOptions::default()
     };
     let study = match (&a.file, &a.columns, a.ident, a.valid) {

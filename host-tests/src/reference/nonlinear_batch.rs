@@ -78,14 +78,31 @@ pub fn simulate_with_gradient(
     (yhat, psi)
 }
 
-/// The simulated output alone (same initial conditions).
+/// The simulated output alone (same initial conditions and arithmetic as
+/// [`simulate_with_gradient`], without the sensitivities: the criterion's hot path).
 pub fn simulate_from_measured(
     structure: NonlinearStructure,
     theta: &[f64],
     y: &[f64],
     u: &[f64],
 ) -> Vec<f64> {
-    simulate_with_gradient(structure, theta, y, u).0
+    let na = structure.na();
+    let len = y.len().min(u.len());
+    let mut yhat = vec![0.0; len];
+    let mut s = vec![0.0; len];
+    for t in 0..len {
+        if t < na {
+            yhat[t] = y[t];
+            s[t] = y[t];
+            continue;
+        }
+        let s2 = if t >= 2 { s[t - 2] } else { 0.0 };
+        let u2 = if t >= 2 { u[t - 2] } else { 0.0 };
+        let ev = evaluate(structure, theta, [s[t - 1], s2], [u[t - 1], u2]);
+        s[t] = ev.s;
+        yhat[t] = ev.y_hat;
+    }
+    yhat
 }
 
 fn criterion(
@@ -112,9 +129,27 @@ pub fn fit(
     y: &[f64],
     u: &[f64],
 ) -> Option<NonlinearFit> {
+    fit_from(structure, theta0, theta0, ridge, y, u)
+}
+
+/// [`fit`] started from `start` with the ridge pulling toward `theta0` (the linear model): the
+/// multi-start fits of the study start elsewhere but keep the ridge's anchor. `sse_init` is the
+/// SSE at `start`.
+pub fn fit_from(
+    structure: NonlinearStructure,
+    start: &[f64],
+    theta0: &[f64],
+    ridge: f64,
+    y: &[f64],
+    u: &[f64],
+) -> Option<NonlinearFit> {
     let n = structure.parameter_count();
     let na = structure.na();
-    if theta0.len() != n || !stable(&theta0[..na], MAX_POLE) || y.len().min(u.len()) <= n + na {
+    if start.len() != n
+        || theta0.len() != n
+        || !stable(&start[..na], MAX_POLE)
+        || y.len().min(u.len()) <= n + na
+    {
         return None;
     }
     let sse_of = |th: &[f64]| {
@@ -123,9 +158,9 @@ pub fn fit(
             .map(|t| (y[t] - yhat[t]).powi(2))
             .sum::<f64>()
     };
-    let sse_init = sse_of(theta0);
+    let sse_init = sse_of(start);
     let lm = levenberg_marquardt(
-        theta0.to_vec(),
+        start.to_vec(),
         MAX_ITERATIONS,
         RELATIVE_TOLERANCE,
         1e-9,

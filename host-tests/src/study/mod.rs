@@ -20,8 +20,10 @@
 //!    group delay), which is how A:B maps to the decimated segment (≈ (B − A)/2 samples). The
 //!    filter has unit DC gain, so the segment is centred with the same value as at Ts.
 //! 6. At both rates, every nonlinear structure of Section 5 (eq. 5, 6, 7, Wiener, friction
-//!    feedback) by Levenberg–Marquardt from its linear OE model, with over-fitting flags
-//!    ([`nonlinear`]).
+//!    feedback) by Levenberg–Marquardt from its linear OE model and from seeded random starts,
+//!    with over-fitting flags ([`nonlinear`]).
+//! 7. At both rates, every model's identification-only criterion (blocked cross-validation
+//!    inside the identification segment) and the recommended model ([`select`]).
 //!
 //! # Centring ([`Centring`])
 //! The paper studies the end of a step, around a constant reference; the models have no offset,
@@ -47,6 +49,7 @@ pub mod nonlinear;
 pub mod plots;
 pub mod protocol;
 pub mod report;
+pub mod select;
 pub mod table;
 
 use std::fmt;
@@ -162,6 +165,10 @@ pub struct StudyOptions {
     /// Ridge δ of the nonlinear fits, `δ‖θ − θ₀‖²` added to the simulation SSE (0: the paper's
     /// criterion); see [`nonlinear`].
     pub nonlinear_ridge: f64,
+    /// Seeded random starts of each nonlinear fit besides the linear one ([`select`]).
+    pub random_starts: usize,
+    /// Seed of those starts.
+    pub start_seed: u64,
 }
 
 impl Default for StudyOptions {
@@ -171,6 +178,8 @@ impl Default for StudyOptions {
             surface_grid: 61,
             xcorr_lags: 20,
             nonlinear_ridge: 0.0,
+            random_starts: 4,
+            start_seed: 1,
         }
     }
 }

@@ -1,7 +1,8 @@
 //! The paper's nonlinear models (Section 5) in the study: every [`NonlinearStructure`] fitted by
-//! `nonlinear_batch::`[`fit`] (Levenberg–Marquardt on the simulation error), started from the
-//! matching linear OE model of the same rate as the paper does (w = 0, so the start *is* the OE
-//! model and LM can only lower the identification SSE):
+//! Levenberg–Marquardt on the simulation error (`nonlinear_batch`), started from the matching
+//! linear OE model of the same rate as the paper does (w = 0, so the start *is* the OE model) and
+//! from seeded random starts around it, keeping the lowest identification SSE
+//! ([`super::select`]), so the fit's SSE is never above the OE model's:
 //!
 //! | report name | structure | from | paper |
 //! |---|---|---|---|
@@ -23,17 +24,15 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 use super::analysis::{CrossCorrelation, cross_correlation};
-use super::models::{monic_roots, refit_num, rms_from};
+use super::models::{monic_roots, rms_from};
 use super::report::ModelReport;
+use super::select::{Criterion, fit_structure, linear_start};
 use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear::{evaluate, static_map};
-use crate::reference::nonlinear_batch::{fit, simulate_from_measured};
+use crate::reference::nonlinear_batch::simulate_from_measured;
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 
-/// Pole modulus an OE start beyond it is pulled in to (the batch fit accepts |p| ≤
-/// [`crate::reference::nonlinear_batch::MAX_POLE`] = 0.999).
-const START_RADIUS: f64 = 0.998;
 /// Points of a static-map curve.
 const MAP_POINTS: usize = 81;
 
@@ -78,6 +77,11 @@ pub struct NonlinearFitReport {
     pub iterations: usize,
     /// Whether LM stopped on its tolerance (not the iteration limit).
     pub converged: bool,
+    /// The start the fit kept (lowest identification SSE, plus the ridge term if any): `linear`
+    /// (θ₀) or `random k` ([`super::select`]).
+    pub start: String,
+    /// The final identification SSE from each start, θ₀ first (∞: the fit failed).
+    pub sse_per_start: Vec<f64>,
 }
 
 /// One curve of a static map.
@@ -157,6 +161,9 @@ pub struct NonlinearReport {
     pub paper_change_vs_linear: Option<f64>,
     /// The search.
     pub fit: NonlinearFitReport,
+    /// The identification-only criterion ([`super::select`]): simulation RMS on held-out halves
+    /// of the identification segment, y unit.
+    pub cv: Criterion,
     /// Simulation residual (the NOE predictor is its simulation) vs input on validation data.
     pub xcorr_valid: CrossCorrelation,
     /// The estimated static nonlinearity.
@@ -194,10 +201,6 @@ fn states(s: NonlinearStructure, theta: &[f64], y: &[f64], u: &[f64]) -> Vec<f64
         x.push(ev.s);
     }
     x
-}
-
-fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
-    v.fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
 fn min_max(v: &[f64]) -> [f64; 2] {
@@ -299,13 +302,9 @@ pub fn fit_all(
     linear: &[ModelReport],
     options: &StudyOptions,
     label: &str,
+    decimation: usize,
 ) -> (Vec<NonlinearReport>, Vec<String>) {
     let (y, u) = (&ident.y, &ident.u);
-    let ranges = InputRanges {
-        u: max_abs(u.iter().copied()).max(1e-9),
-        y: max_abs(y.iter().copied()).max(1e-9),
-        dy: max_abs(y.windows(2).map(|w| w[1] - w[0])).max(1e-9),
-    };
     let mut reports = Vec::new();
     let mut notes = Vec::new();
     for s in NonlinearStructure::ALL {
@@ -314,23 +313,17 @@ pub fn fit_all(
             continue;
         };
         let na = s.na();
-        let (mut den, mut num) = (lin.theta[..na].to_vec(), lin.theta[na..].to_vec());
-        let mut init = "oe";
-        if !stable(&den, START_RADIUS) {
-            let pulled = super::models::project_stable(&den, START_RADIUS);
-            match refit_num(&pulled, y, u) {
-                Some(b) => (den, num, init) = (pulled, b, "projected_oe"),
-                None => continue,
-            }
-        }
-        let lin_theta: Vec<f64> = den.iter().chain(&num).copied().collect();
-        let th0 = theta0(s, &lin_theta, ranges);
-        let Some(f) = fit(s, &th0, options.nonlinear_ridge, y, u) else {
+        let (den, num) = (&lin.theta[..na], &lin.theta[na..]);
+        let Some((lin_theta, th0, init)) = linear_start(s, den, num, y, u) else {
+            continue;
+        };
+        let Some(ms) = fit_structure(s, &th0, y, u, options, decimation, 0) else {
             notes.push(format!(
                 "{name} at {label}: could not be fitted (start or data)"
             ));
             continue;
         };
+        let f = &ms.fit;
         let sim_ident = simulate_from_measured(s, &f.theta, y, u);
         let sim_valid = simulate_from_measured(s, &f.theta, &valid.y, &valid.u);
         let rms_sim_ident = rms_from(y, &sim_ident, RMS_START);
@@ -381,11 +374,18 @@ pub fn fit_all(
                 method: "levenberg_marquardt",
                 init,
                 ridge: options.nonlinear_ridge,
-                sse_init: f.sse_init,
+                sse_init: ms.sse_linear,
                 sse_final: f.sse_final,
                 iterations: f.iterations,
                 converged: f.converged,
+                start: if ms.start == 0 {
+                    "linear".to_owned()
+                } else {
+                    format!("random {}", ms.start)
+                },
+                sse_per_start: ms.sse_per_start.clone(),
             },
+            cv: Criterion::default(),
             xcorr_valid: cross_correlation(&eps[from..], &valid.u[from..], options.xcorr_lags),
             static_map: map_of(s, &f.theta, &lin_theta, ident),
             sim_valid,

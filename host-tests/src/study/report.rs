@@ -13,6 +13,7 @@ use super::models::{
 use super::nonlinear::{NonlinearReport, fit_all};
 use super::plots::PlotInfo;
 use super::protocol::TwinProtocol;
+use super::select::{Criterion, Recommendation, cross_validate, recommend};
 use super::{
     Centring, Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, Segment, StudyError, StudyOptions,
 };
@@ -72,6 +73,9 @@ pub struct ModelReport {
     pub samples_per_param: f64,
     /// `samples_per_param < 10`: the estimate may be fitting the noise.
     pub overfit_risk: bool,
+    /// The identification-only criterion ([`super::select`]): simulation RMS on held-out halves
+    /// of the identification segment, y unit.
+    pub cv: Criterion,
     /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` of the fit's criterion.
     pub fpe: f64,
     /// Simulation RMS on the identification segment, y unit ([`Study::y_unit_name`]).
@@ -141,6 +145,7 @@ impl ModelReport {
             samples_ident: ident.y.len(),
             samples_per_param,
             overfit_risk: samples_per_param < MIN_SAMPLES_PER_PARAMETER,
+            cv: Criterion::default(),
             fpe: if ratio < 1.0 {
                 v * (1.0 + ratio) / (1.0 - ratio)
             } else {
@@ -182,6 +187,9 @@ pub struct RateReport {
     pub models: Vec<ModelReport>,
     /// Every nonlinear structure, each started from its linear OE counterpart above.
     pub nonlinear: Vec<NonlinearReport>,
+    /// The recommended model, chosen by the identification-only criterion ([`super::select`]);
+    /// `None` when no linear model could be scored.
+    pub recommended: Option<Recommendation>,
     /// Caveats of this rate's fits.
     #[serde(skip)]
     pub notes: Vec<String>,
@@ -268,11 +276,20 @@ pub(super) fn rate_report(
         return Err(StudyError::Usage("first-order models missing".to_owned()));
     };
     let criterion_surfaces = criterion_surfaces(y, u, arx1, oe1, options.surface_grid);
-    let models: Vec<ModelReport> = fitted
+    let mut models: Vec<ModelReport> = fitted
         .iter()
         .map(|(m, f)| ModelReport::new(m, f.clone(), ident, valid, options.xcorr_lags))
         .collect();
-    let (nonlinear, notes) = fit_all(ident, valid, &models, options, label);
+    let (mut nonlinear, notes) = fit_all(ident, valid, &models, options, label, decimation);
+    for (name, cv) in cross_validate(ident, options, decimation) {
+        if let Some(m) = models.iter_mut().find(|m| m.name == name) {
+            m.cv = cv.clone();
+        }
+        if let Some(m) = nonlinear.iter_mut().find(|m| m.name == name) {
+            m.cv = cv.clone();
+        }
+    }
+    let recommended = recommend(&models, &nonlinear);
     Ok(RateReport {
         label: label.to_owned(),
         ts_s: ident.ts_s,
@@ -285,6 +302,7 @@ pub(super) fn rate_report(
         centre_valid_q: valid.centre_q,
         models,
         nonlinear,
+        recommended,
         notes,
         criterion_surfaces,
         spectra: (periodogram(u, ident.ts_s), periodogram(y, ident.ts_s)),

@@ -25,6 +25,8 @@ struct Row<'a> {
     samples: usize,
     overfit: bool,
     change: Option<f64>,
+    cv: f64,
+    recommended: bool,
 }
 
 impl<'a> Row<'a> {
@@ -40,6 +42,8 @@ impl<'a> Row<'a> {
             samples: m.samples_ident,
             overfit: m.overfit_risk,
             change: None,
+            cv: m.cv.rms,
+            recommended: false,
         }
     }
 
@@ -58,13 +62,18 @@ impl<'a> Row<'a> {
             samples: m.samples_ident,
             overfit: m.overfit_risk,
             change: Some(m.change_vs_linear_valid),
+            cv: m.cv.rms,
+            recommended: false,
         }
     }
 
     fn of(rate: &'a RateReport, name: &str) -> Option<Self> {
-        rate.model(name)
+        let mut row = rate
+            .model(name)
             .map(Self::linear)
-            .or_else(|| rate.nonlinear_model(name).map(Self::nonlinear))
+            .or_else(|| rate.nonlinear_model(name).map(Self::nonlinear))?;
+        row.recommended = rate.recommended.as_ref().is_some_and(|r| r.model == name);
+        Some(row)
     }
 
     fn rms(&self, v: f64) -> String {
@@ -80,8 +89,13 @@ impl<'a> Row<'a> {
         } else {
             format!("{v:.1e}{mark}")
         };
-        if let Some(c) = self.change.filter(|_| v == self.rms_valid) {
-            let _ = write!(s, " ({:+.0} %)", 100.0 * c);
+        if v == self.rms_valid {
+            if let Some(c) = self.change {
+                let _ = write!(s, " ({:+.0} %)", 100.0 * c);
+            }
+            if self.recommended {
+                s.push_str(" ★");
+            }
         }
         s
     }
@@ -117,8 +131,9 @@ impl Study {
         let unit = &self.y_unit_name;
         let mut t = format!(
             "| model (RMS in {unit}) | sim RMS valid, Ts | sim RMS valid, ÷2 {}\
-             | pred RMS valid, Ts | pred RMS valid, ÷2 | sim RMS ident, Ts | poles at Ts | d / N (Ts, ÷2) | paper |\n\
-             |---|---|---|{}---|---|---|---|---|---|\n",
+             | pred RMS valid, Ts | pred RMS valid, ÷2 | sim RMS ident, Ts | CV RMS ident (Ts, ÷2) \
+             | poles at Ts | d / N (Ts, ÷2) | paper |\n\
+             |---|---|---|{}---|---|---|---|---|---|---|\n",
             if findings {
                 "| twin's reference (findings.md) Ts | twin's reference (findings.md) ÷2 "
             } else {
@@ -157,7 +172,7 @@ impl Study {
             };
             let _ = writeln!(
                 t,
-                "| {} | {} | {} |{} {} | {} | {} | {} | {}/{}{}, {}/{}{} | {} |",
+                "| {} | {} | {} |{} {} | {} | {} | {:.2}, {:.2} | {} | {}/{}{}, {}/{}{} | {} |",
                 r.model,
                 a.rms(a.rms_valid),
                 b.rms(b.rms_valid),
@@ -165,6 +180,8 @@ impl Study {
                 pred(a.pred_valid),
                 pred(b.pred_valid),
                 a.rms(a.rms_ident),
+                a.cv,
+                b.cv,
                 poles.join(", "),
                 a.n_params,
                 a.samples,
@@ -181,7 +198,9 @@ impl Study {
              validation RMS against its linear start (OE1 for NOE-Hammerstein1, NOE1-yu, Wiener1; \
              OE2 for NOE221, Friction2); the paper: −9 % (eq. 5 vs OE1), −13 % (eq. 7 vs OE2). \
              † unstable model: its simulation diverges. ‡ a pole at |p| > 0.999 (on the stability \
-             constraint). § fewer than 10 identification samples per parameter: may fit noise."
+             constraint). § fewer than 10 identification samples per parameter: may fit noise. \
+             CV RMS ident: the identification-only criterion, simulation RMS on held-out parts of \
+             the identification segment (each model refitted on the rest)."
         );
         if findings {
             t.push_str(
@@ -191,6 +210,21 @@ impl Study {
             );
         }
         t.push('\n');
+        for rate in [&self.at_ts, &self.decimated_by_2] {
+            if let Some(r) = &rate.recommended {
+                let _ = writeln!(
+                    t,
+                    "★ recommended at {}: {} (CV RMS {:.3}; best linear {} {:.3}; a nonlinear \
+                     model must be {:.0} % lower than the best linear one)",
+                    rate.label,
+                    r.model,
+                    r.value,
+                    r.best_linear,
+                    r.best_linear_value,
+                    100.0 * r.margin
+                );
+            }
+        }
         t
     }
 }
