@@ -42,6 +42,24 @@ pub struct ClosedLoopSpec {
     pub seed: u64,
 }
 
+impl ClosedLoopSpec {
+    /// The loop the matched-plant tests run a [`NonlinearPlant`] in: no linear plant (the
+    /// nonlinear plant brings its own), kp 0.15, dither 0.3, a step of up to ±30 quanta every 60
+    /// samples.
+    pub fn matched_plant(samples: usize, seed: u64) -> Self {
+        Self {
+            a: vec![],
+            b: vec![],
+            kp: 0.15,
+            dither: 0.3,
+            step_every: 60,
+            step_max: 30.0,
+            samples,
+            seed,
+        }
+    }
+}
+
 /// Simulates the plant in closed loop.
 pub fn closed_loop(spec: &ClosedLoopSpec) -> ClosedLoopRecord {
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);

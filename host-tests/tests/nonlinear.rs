@@ -28,19 +28,7 @@ const IDENT: usize = 40_000;
 const VALID: usize = 5_000;
 
 fn record(plant: NonlinearPlant, samples: usize, seed: u64) -> ClosedLoopRecord {
-    nonlinear_closed_loop(
-        plant,
-        &ClosedLoopSpec {
-            a: vec![],
-            b: vec![],
-            kp: 0.15,
-            dither: 0.3,
-            step_every: 60,
-            step_max: 30.0,
-            samples,
-            seed,
-        },
-    )
+    nonlinear_closed_loop(plant, &ClosedLoopSpec::matched_plant(samples, seed))
 }
 
 fn s(x: f64) -> SignalI16F16 {

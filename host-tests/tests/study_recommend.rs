@@ -154,22 +154,9 @@ fn the_validation_segment_does_not_change_the_recommendation() {
     }
 }
 
-fn spec(samples: usize, seed: u64) -> ClosedLoopSpec {
-    ClosedLoopSpec {
-        a: vec![],
-        b: vec![],
-        kp: 0.15,
-        dither: 0.3,
-        step_every: 60,
-        step_max: 30.0,
-        samples,
-        seed,
-    }
-}
-
 /// A closed-loop record of `plant` (the plants of `tests/nonlinear.rs`), in the study's units.
 fn plant_signals(plant: NonlinearPlant, samples: usize, seed: u64) -> Signals {
-    let r = nonlinear_closed_loop(plant, &spec(samples, seed));
+    let r = nonlinear_closed_loop(plant, &ClosedLoopSpec::matched_plant(samples, seed));
     Signals {
         source: format!("{plant:?}"),
         ts_s: 1.0,
