@@ -301,7 +301,7 @@ pub fn units(file: &Path, spec: &ReplaySpec, nonlinear: bool) -> Result<Units, S
     let bad = |e: sledid::ConfigError| format!("{}: normalisation: {e}", file.display());
     let norm = Normalisation::for_ranges_to(y / spec.y_unit, u / spec.u_full_scale, ty, tu)
         .map_err(bad)?;
-    let scaling = Scaling::new(y / ty, u / tu).map_err(bad)?;
+    let scaling = Scaling::for_ranges_to(y, u, ty, tu).map_err(bad)?;
     Ok(Units { scaling, norm })
 }
 

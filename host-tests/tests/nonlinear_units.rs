@@ -46,7 +46,7 @@
 
 use rayon::prelude::*;
 use sledid::ident::conditioning::Conditioning;
-use sledid::ident::nonlinear::NonlinearStructure;
+use sledid::ident::nonlinear::{InputRanges, NonlinearStructure};
 use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid_host::excitation::{Excitation, Plant, write_recording};
 use sledid_host::recording::ReaderOptions;
@@ -184,13 +184,8 @@ fn twin(seed: u64) -> Case {
 /// The largest difference of the fixed-point model's static map from the float64 model's, over
 /// the data's input range, relative to the float64 map's span: eq. 5 and 7 u ↦ b₁u + g(u), the
 /// Wiener output map, the friction force against the velocity; eq. 6's neuron over its (ŷ, u)
-/// plane with b₁u added.
-fn shape_error(s: NonlinearStructure, sum: &ReplaySummary, other_f64: &[f64]) -> f64 {
-    let kind = ModelKind::Nonlinear(s);
-    let norm = normalisation_of(sum);
-    let fx = &to_normalised(kind, other_f64, norm);
-    let f64n = to_normalised(kind, &sum.theta_f64, norm);
-    let r = sum.ranges;
+/// plane with b₁u added. `fx` and `f64n` are θ in the normalised units `r` is in.
+fn shape_error(s: NonlinearStructure, r: InputRanges, fx: &[f64], f64n: &[f64]) -> f64 {
     let n = 81;
     let grid = |range: f64| (0..n).map(move |i| range * (2.0 * i as f64 / (n - 1) as f64 - 1.0));
     let (a, b): (Vec<f64>, Vec<f64>) = match s {
@@ -199,7 +194,7 @@ fn shape_error(s: NonlinearStructure, sum: &ReplaySummary, other_f64: &[f64]) ->
                 |t: &[f64], y: f64, u: f64| t[1] * u + t[2] * (t[3] * y + t[4] * u + t[5]).tanh();
             grid(r.y)
                 .flat_map(|y| grid(r.u).map(move |u| (y, u)))
-                .map(|(y, u)| (map(fx, y, u), map(&f64n, y, u)))
+                .map(|(y, u)| (map(fx, y, u), map(f64n, y, u)))
                 .unzip()
         }
         _ => {
@@ -212,7 +207,7 @@ fn shape_error(s: NonlinearStructure, sum: &ReplaySummary, other_f64: &[f64]) ->
                 .map(|x| {
                     (
                         static_map(s, fx, x).expect("map"),
-                        static_map(s, &f64n, x).expect("map"),
+                        static_map(s, f64n, x).expect("map"),
                     )
                 })
                 .unzip()
@@ -233,14 +228,15 @@ fn normalisation_of(sum: &ReplaySummary) -> sledid::Normalisation {
     sledid::Normalisation::from_factors(ky, ku).expect("factors")
 }
 
-/// One case, one structure: (fixed/f64 − 1, shape error, and the f64's own moves of both under a
-/// 10⁻⁶ change of the data).
+/// One case, one structure: (fixed/f64 − 1, shape error, and the f64's own moves of both under
+/// ±10⁻⁴ changes of the data).
 fn compare(case: &Case, s: NonlinearStructure) -> [f64; 4] {
     let spec = case.spec(s);
     let sum = case.run(&spec, "nominal");
     let kind = ModelKind::Nonlinear(s);
-    let fx_user =
-        sledid_host::reference::units::to_user(kind, &sum.theta_normalised, normalisation_of(&sum));
+    let norm = normalisation_of(&sum);
+    // Every θ in the nominal run's normalised units.
+    let f64n = to_normalised(kind, &sum.theta_f64, norm);
     // The float64 twin's own moves, the larger of two perturbations of opposite sign.
     let (mut own, mut own_shape) = (0.0f64, 0.0f64);
     for (i, d) in [1e-4, -1e-4].into_iter().enumerate() {
@@ -254,11 +250,12 @@ fn compare(case: &Case, s: NonlinearStructure) -> [f64; 4] {
         if m.abs() > own.abs() {
             own = m;
         }
-        own_shape = own_shape.max(shape_error(s, &sum, &other.theta_f64));
+        let moved_f64n = to_normalised(kind, &other.theta_f64, norm);
+        own_shape = own_shape.max(shape_error(s, sum.ranges, &moved_f64n, &f64n));
     }
     [
         sum.sim_rms / sum.sim_rms_f64 - 1.0,
-        shape_error(s, &sum, &fx_user),
+        shape_error(s, sum.ranges, &sum.theta_normalised, &f64n),
         own,
         own_shape,
     ]

@@ -17,7 +17,11 @@
 //!
 //! The same recording in any unit enters the fixed-point path as the same samples (to the last
 //! bit but for the rounding of one division), so everything identified from it is the same model,
-//! which maps back to the user's units by the factors k (`sledid_host::reference::units`).
+//! which maps back to the user's units by the factors k (`sledid_host::reference::units`). A
+//! caller that knows the ranges in the quantities' own units (metres, volts: the replay, from a
+//! first pass over the file) builds the normalised units from them with [`Scaling::for_ranges_to`]
+//! — bit for bit the same whatever unit the user named — and [`Normalisation::for_ranges_to`]
+//! gives the factors k to report in the user's units.
 
 use crate::error::{BoundaryError, ConfigError};
 use crate::num::fixed::SignalI16F16;
@@ -189,6 +193,28 @@ impl Scaling {
             quantum_m,
             u_full_scale_v,
         })
+    }
+
+    /// The normalised units themselves, from ranges in the quantities' own units (m, V): quantum
+    /// `y_range_m / y_target`, full scale `u_range_v / u_target` — the same [`Scaling`] whatever
+    /// unit a user would have named (module doc).
+    ///
+    /// # Errors
+    /// [`ConfigError::SignalRange`] with the first range or target that is not finite and > 0, or
+    /// [`ConfigError::Quantum`] / [`ConfigError::FullScale`] for a unit that is not.
+    #[allow(clippy::float_arithmetic)] // design time
+    pub fn for_ranges_to(
+        y_range_m: f64,
+        u_range_v: f64,
+        y_target: f64,
+        u_target: f64,
+    ) -> Result<Self, ConfigError> {
+        for x in [y_range_m, u_range_v, y_target, u_target] {
+            if !(x.is_finite() && x > 0.0) {
+                return Err(ConfigError::SignalRange(x));
+            }
+        }
+        Self::new(y_range_m / y_target, u_range_v / u_target)
     }
 
     /// The same conversion into the normalised units of `n`: quantum × k_y, full scale × k_u.

@@ -40,6 +40,12 @@ pub struct NonlinearFit {
     pub converged: bool,
 }
 
+/// [s(t−1), s(t−2)] and [u(t−1), u(t−2)] for t ≥ 1, zero before the record.
+fn lags(s: &[f64], u: &[f64], t: usize) -> ([f64; 2], [f64; 2]) {
+    let at = |v: &[f64], k: usize| t.checked_sub(k).map_or(0.0, |i| v[i]);
+    ([at(s, 1), at(s, 2)], [at(u, 1), at(u, 2)])
+}
+
 /// Simulated output from the measured initial outputs, and its gradient ψ(t) = ∂ŷ(t)/∂θ.
 pub fn simulate_with_gradient(
     structure: NonlinearStructure,
@@ -60,9 +66,8 @@ pub fn simulate_with_gradient(
             s[t] = y[t];
             continue;
         }
-        let s2 = if t >= 2 { s[t - 2] } else { 0.0 };
-        let u2 = if t >= 2 { u[t - 2] } else { 0.0 };
-        let ev = evaluate(structure, theta, [s[t - 1], s2], [u[t - 1], u2]);
+        let (s_lag, u_lag) = lags(&s, u, t);
+        let ev = evaluate(structure, theta, s_lag, u_lag);
         s[t] = ev.s;
         yhat[t] = ev.y_hat;
         for k in 0..n {
@@ -96,9 +101,8 @@ pub fn simulate_from_measured(
             s[t] = y[t];
             continue;
         }
-        let s2 = if t >= 2 { s[t - 2] } else { 0.0 };
-        let u2 = if t >= 2 { u[t - 2] } else { 0.0 };
-        let ev = evaluate(structure, theta, [s[t - 1], s2], [u[t - 1], u2]);
+        let (s_lag, u_lag) = lags(&s, u, t);
+        let ev = evaluate(structure, theta, s_lag, u_lag);
         s[t] = ev.s;
         yhat[t] = ev.y_hat;
     }
