@@ -399,6 +399,7 @@ mod target {
     use sledid::ident::nonlinear::NonlinearStructure;
 
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
+    static RLS3: Mutex<RefCell<Option<RlsBench<3>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
     static ARX4: Mutex<RefCell<Option<ArxBench<4>>>> = Mutex::new(RefCell::new(None));
     static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
@@ -419,6 +420,7 @@ mod target {
     pub extern "C" fn bench_init() {
         critical_section::with(|cs| {
             RLS2.borrow(cs).replace(RlsBench::new());
+            RLS3.borrow(cs).replace(RlsBench::new());
             RLS4.borrow(cs).replace(RlsBench::new());
             ARX4.borrow(cs).replace(ArxBench::new());
             NEURON.borrow(cs).replace(NeuronBench::new());
@@ -460,6 +462,17 @@ mod target {
     pub extern "C" fn bench_rls2_update(i: u32) -> u32 {
         critical_section::with(|cs| {
             RLS2.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i).into())
+        })
+    }
+
+    /// One RLS update, n = 3 (the servo's identifier).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_rls3_update(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            RLS3.borrow(cs)
                 .borrow_mut()
                 .as_mut()
                 .map_or(0, |b| b.call(i).into())
@@ -601,9 +614,10 @@ mod target {
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 16] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 17] = [
         bench_overhead,
         bench_rls2_update,
+        bench_rls3_update,
         bench_rls4_update,
         bench_arx4_step,
         bench_neuron_eval,

@@ -283,9 +283,10 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 16] = [
+const BENCH_FNS: [&str; 17] = [
     "bench_overhead",
     "bench_rls2_update",
+    "bench_rls3_update",
     "bench_rls4_update",
     "bench_arx4_step",
     "bench_neuron_eval",
