@@ -47,13 +47,23 @@ fn at(t: &[i32; TABLE], i: u32) -> SignalI16F16 {
     SignalI16F16::from_raw(t.get(i as usize % TABLE).copied().unwrap_or(0))
 }
 
-/// The RLS design the cost figures are for: λ = 0.99 (the reference point's setting), trace limit.
+/// The RLS design the cost figures are for: λ = 0.99 (the reference point's setting), each dⱼ
+/// capped at 2¹³ (the kernel's own anti-windup, `AntiWindup::FactorCap`).
 fn rls_design() -> RlsDesign {
     RlsDesign {
         lambda: 0.99,
         p0: 100.0,
-        anti_windup: AntiWindup::TraceLimit { max: 1.0e4 },
+        anti_windup: AntiWindup::FactorCap { max: 1.0e4 },
         ..RlsDesign::default()
+    }
+}
+
+/// [`rls_design`] with the trace limit 10⁴ instead (the servo's kind of bound; the design the
+/// previous kernel's figures were measured with).
+fn rls_design_trace() -> RlsDesign {
+    RlsDesign {
+        anti_windup: AntiWindup::TraceLimit { max: 1.0e4 },
+        ..rls_design()
     }
 }
 
@@ -66,7 +76,16 @@ pub struct RlsBench<const N: usize> {
 impl<const N: usize> RlsBench<N> {
     /// Builds the scenario; `None` if the design were invalid (it is not).
     pub fn new() -> Option<Self> {
-        let config = rls_design().build().ok()?;
+        Self::with(rls_design())
+    }
+
+    /// The scenario with the trace limit ([`rls_design_trace`]).
+    pub fn with_trace_limit() -> Option<Self> {
+        Self::with(rls_design_trace())
+    }
+
+    fn with(design: RlsDesign) -> Option<Self> {
+        let config = design.build().ok()?;
         let state = RlsState::new(&config, [ParamI12F20::ZERO; N]);
         Some(Self { config, state })
     }
@@ -401,6 +420,7 @@ mod target {
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS3: Mutex<RefCell<Option<RlsBench<3>>>> = Mutex::new(RefCell::new(None));
     static RLS4: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
+    static RLS4T: Mutex<RefCell<Option<RlsBench<4>>>> = Mutex::new(RefCell::new(None));
     static ARX4: Mutex<RefCell<Option<ArxBench<4>>>> = Mutex::new(RefCell::new(None));
     static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
     static DECIMATE: Mutex<RefCell<Option<DecimateBench>>> = Mutex::new(RefCell::new(None));
@@ -422,6 +442,7 @@ mod target {
             RLS2.borrow(cs).replace(RlsBench::new());
             RLS3.borrow(cs).replace(RlsBench::new());
             RLS4.borrow(cs).replace(RlsBench::new());
+            RLS4T.borrow(cs).replace(RlsBench::with_trace_limit());
             ARX4.borrow(cs).replace(ArxBench::new());
             NEURON.borrow(cs).replace(NeuronBench::new());
             DECIMATE.borrow(cs).replace(DecimateBench::new());
@@ -484,6 +505,18 @@ mod target {
     pub extern "C" fn bench_rls4_update(i: u32) -> u32 {
         critical_section::with(|cs| {
             RLS4.borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call(i).into())
+        })
+    }
+
+    /// One RLS update, n = 4, with the trace limit instead of the factor cap.
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_rls4_trace_update(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            RLS4T
+                .borrow(cs)
                 .borrow_mut()
                 .as_mut()
                 .map_or(0, |b| b.call(i).into())
@@ -614,11 +647,12 @@ mod target {
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 17] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 18] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls3_update,
         bench_rls4_update,
+        bench_rls4_trace_update,
         bench_arx4_step,
         bench_neuron_eval,
         bench_decimate_push,

@@ -333,10 +333,12 @@ fn project_friction<const N: usize>(rls: &mut RlsState<N>) -> Status {
         Some(c) if c.raw() < 0 => i64::from(c.raw()),
         _ => return Status::NONE,
     };
-    for (t, row) in theta.iter_mut().zip(rls.u_i8f24().iter()) {
-        let u = row.last().map_or(0, |u| i64::from(*u));
+    // U's last column, column-major storage: u[N−1][i] = Uᵢ,N−1 (I8F24).
+    let last_col = rls.u_i8f24().last().copied().unwrap_or([0; N]);
+    for (t, u) in theta.iter_mut().zip(last_col.iter()) {
         // I8F24 × I12F20 → I20F44, back to I12F20 (|u·c| < 2⁶²).
-        let raw = i64::from(t.raw()) - crate::num::fixed::shr_round_i64(u * c, 24);
+        let raw = i64::from(t.raw())
+            - crate::num::fixed::shr_round_i64(i64::from(*u) * c, crate::ident::rls::U_FRAC_BITS);
         *t = ParamI12F20::from_raw(raw.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
     }
     if let Some(last) = theta.last_mut() {

@@ -1,5 +1,6 @@
 //! Recursive least squares with exponential forgetting, in integers, on the UD factorisation of the
-//! covariance (Bierman's update), with the anti-windup the sled's closed-loop data needs.
+//! covariance (Bierman's update) in one pass over the columns, with the anti-windup the sled's
+//! closed-loop data needs.
 //!
 //! # Equations
 //! For the regression `y(t) = ψ(t)ᵀθ + e(t)` (eq. 1 of the paper for ARX, its pseudo-linear and
@@ -14,95 +15,103 @@
 //!
 //! P is never formed. It is held as `P = U·D·Uᵀ` with U unit upper-triangular and D diagonal and
 //! positive, and updated with Bierman's algorithm (G. J. Bierman, *Factorization Methods for Discrete
-//! Sequential Estimation*, 1977, §V.3), in the "normalised gain" form used here:
+//! Sequential Estimation*, 1977, §V.3), on a block-normalised regressor and without ever forming
+//! the innovation variances βⱼ, only their ratios and the running reciprocal γⱼ = 1/βⱼ
+//! (`shared/kernel-design.md`):
 //!
 //! ```text
-//! f = Uᵀψ,  α₀ = λ,  αⱼ = αⱼ₋₁ + dⱼ fⱼ²,  rⱼ = αⱼ₋₁/αⱼ,  gⱼ = dⱼ fⱼ / αⱼ
-//! dⱼ ← dⱼ rⱼ / λ
-//! for i < j:  Uᵢⱼ ← Uᵢⱼ − fⱼ κᵢ,   κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ ;   κⱼ = gⱼ
-//! K = κ
+//! φ̂ = 2^σ ψ            one leading-zero count over all |ψᵢ|: max |φ̂| ∈ [½, 1); σ the block exponent
+//! f = Uᵀφ̂,  γ₀ = 1/(λ·4^σ)
+//! for each column j:
+//!     gⱼ = dⱼ fⱼ,  μⱼ = −fⱼ γⱼ₋₁,  qⱼ = |gⱼ μⱼ|          (= dⱼ fⱼ² / βⱼ₋₁ ≥ 0)
+//!     rⱼ = 1 / (1 + qⱼ)                                 (= βⱼ₋₁ / βⱼ: a reciprocal of a number ≥ 1)
+//!     γⱼ = γⱼ₋₁ rⱼ,   dⱼ ← cap(dⱼ rⱼ / λ)
+//!     for i < j:  Uᵢⱼ ← Uᵢⱼ + νᵢ μⱼ,   νᵢ ← νᵢ + Uᵢⱼ(old) gⱼ
+//!     νⱼ = gⱼ
+//! θ ← θ + 2^σ ν γ_N ε                                   (K = 2^σ ν γ_N)
 //! ```
 //!
 //! # Why this form
-//! - **Positive definite by construction.** Every dⱼ is a positive [`Dyadic`] (it cannot reach zero or
-//!   change sign: it is only ever multiplied by positive factors) and U is unit triangular, so
-//!   P = UDUᵀ is symmetric positive definite whatever the rounding. The textbook update loses positive
-//!   definiteness after ~4,400 samples of the sled data at λ = 0.995 even in float64
-//!   (`shared/findings.md`).
-//! - **Range.** P spans ~2^50 on the sled data and winds up without bound under forgetting. Each dⱼ,
-//!   αⱼ and 1/αⱼ carries its own exponent (32-bit mantissa), so range costs nothing.
-//! - **No division.** The only reciprocals are of αⱼ, by a table-seeded Newton iteration
-//!   ([`crate::num::wide::recip_q63`]): no 64-bit software division on the hot path.
-//! - **Fixed point where the range is known.** f is normalised by a power of two (block floating
-//!   point: ψ·2⁻ᵏ, which only rescales α₀ to λ·4⁻ᵏ and the gain by 2⁻ᵏ, both exact), the gains gⱼ share
-//!   one exponent per update, and U is I8F24 — its entries are ratios of parameter scales, bounded
-//!   when the regressors are normalised and centred.
+//! - **Positive definite by construction.** Every dⱼ is a positive [`Dyadic`] (only ever multiplied
+//!   by positive factors, floored at the smallest positive value) and U is unit triangular, so
+//!   P = UDUᵀ is symmetric positive definite whatever the rounding; a saturated Uᵢⱼ leaves U unit
+//!   triangular. The textbook update loses positive definiteness after ~4,400 samples of the sled
+//!   data at λ = 0.995 even in float64 (`shared/findings.md`).
+//! - **Unit-free.** ψ is normalised by one power of two per update, so no absolute format sees the
+//!   magnitude of the regressors; dⱼ, gⱼ, μⱼ, qⱼ, rⱼ, γⱼ float (32-bit mantissa, own exponent).
+//!   U holds ratios of parameter scales: it stays in range when the regressors are of comparable
+//!   magnitude, which the boundary's normalisation provides ([`crate::num::boundary`]).
+//! - **No division.** Each column needs one reciprocal of a number ≥ 1
+//!   ([`crate::num::wide::recip_q63`]: a 256-entry seed and two Newton steps); 1 + qⱼ is an add to
+//!   a constant, not a general floating add.
+//! - **One pass.** ν's block exponent is known before the first column (from the exponents of D
+//!   and the bit lengths of f), so U, ν and D are updated column by column in one loop.
+//! - **One body for every N.** [`RlsConfig::update`] is a thin const-generic wrapper of one kernel
+//!   on slices, so an image with several parameter counts carries the kernel once.
 //!
 //! # Formats
 //! | quantity | format | note |
 //! |---|---|---|
-//! | ψ, ε, ŷ | I16F16 ([`SignalI16F16`]) | quanta / fraction of full scale |
-//! | θ | I12F20 ([`ParamI12F20`]) | saturating, flagged |
-//! | U (strict upper part) | I8F24 `i32` | saturating, flagged |
-//! | D (stored), λ, 1/λ | [`Dyadic`] (32-bit mantissa, own exponent) | exponent saturation flagged |
-//! | vⱼ, αⱼ, 1/αⱼ, rⱼ, gⱼ, D (during the update) | mantissa in [2³¹, 2³²) and unclamped `i32` exponent | clamped once, when D is stored |
-//! | f̂ = Uᵀψ normalised | I1F31 `i32`, max \|f̂\| ∈ [2³⁰, 2³¹] | scale 2ᵏ kept aside |
-//! | rⱼ = αⱼ₋₁/αⱼ | I1F31 `i32`, rounded, ≤ 2³¹ − 1 | |
-//! | κ (gain being built) | `i32` in units 2^e_κ, one e_κ per update: largest gⱼ below 2²⁵ (6 bits of headroom) | saturating, flagged |
-//! | Gⱼ = gⱼ·2⁶ in κ units | `i32` < 2³¹ | so that Uᵢⱼ·Gⱼ/2³⁰ is in κ units |
+//! | ψ, ε, ŷ | I16F16 ([`SignalI16F16`]) | the interface |
+//! | φ̂ | I3F29 `i32`, max \|φ̂\| ∈ [2²⁸, 2²⁹) raw | block exponent σ per update; λ·4^σ exact |
+//! | U (strict upper part, column-major) | I8F24 `i32` ([`U_FRAC_BITS`]) | saturating, flagged |
+//! | f = Uᵀφ̂ | exact I11F53 `i64` sum, rounded once to I11F21 `i32` (its high word) | \|f\| < 1 + 7·128 < 1024 |
+//! | D | [`Dyadic`]: mantissa in [2³¹, 2³²), own exponent | capped per column (anti-windup) |
+//! | gⱼ, μⱼ, qⱼ, 1 + qⱼ, rⱼ, γⱼ | mantissa in [2³¹, 2³²) and `i32` exponent, sign kept aside | products truncated to 32 bits |
+//! | ν (the gain being built) | `i32` in units 2^e_ν, one e_ν per update | headroom H bits above the largest gⱼ |
+//! | θ | I16F48 `i64` ([`RlsState::theta_i16f48`]), read out as I12F20 ([`ParamI12F20`]) | saturating, flagged |
 //!
 //! # Scaling and overflow
-//! `f` is accumulated exactly in I24F40 (`i64`, saturating). Products of two `i32` are formed in
-//! `i64` (no overflow possible); every narrowing saturates and raises [`Status::SATURATED`]. Shifts
-//! round half up (truncation would bias U and θ over 10⁶ samples). The per-update shift amounts
-//! (f̂, ΔU, Δθ) are computed once; in the usual range a product and its rounded shift are one
-//! high-word multiply of an exactly pre-shifted operand, or 32-bit shifts of the two halves, and
-//! both give exactly the general path's result (unit test). The mantissa/exponent chain cannot
-//! overflow its `i32` exponents: stored exponents are within ±2¹⁴ and one update adds a few hundred.
-//! The trace bound uses the column norms `1 + Σᵢ Uᵢⱼ²` summed while U is updated, through the same
-//! function as [`RlsState::trace`], so the bound and the public trace agree exactly.
+//! - |φ̂| ≤ 2²⁹ and |Uᵢⱼ| ≤ 2³¹ raw: each product of f is at most 2⁶⁰ and f's sum of ≤ 8 terms
+//!   (with φ̂ⱼ·2²⁴) stays below 2⁶³ — plain adds; its rounded high word is f̂ⱼ in I11F21.
+//! - ν: e_ν = max_j(exponent bound of gⱼ) − (31 − H), the bound from D's exponents and f̂'s bit
+//!   lengths, and the headroom H = bitlen((N−1)·2^k) from the largest |Uᵢⱼ| < 2^k (k ≥ 0; one OR
+//!   per entry while f is formed), so |νᵢ| ≤ |g|max·(1 + (N−1)·2^k) < 2³¹: ν keeps 31 − H bits
+//!   when U is small and stays in range when it is large. The adds saturate anyway (flagged).
+//!   νᵢ + Uᵢⱼ·gⱼ is one widening multiply and a constant shift.
+//! - Uᵢⱼ + νᵢ μⱼ: μⱼ is pre-shifted to Mⱼ with ν·Mⱼ/2³² in I8F24 (one rounded high-word multiply,
+//!   `SMMULR` on Armv7E-M) when that shift is a right shift (the usual case); else the 64-bit
+//!   product is shifted and narrowed, saturating.
+//! - θ: Δθ = ν·(γ_N |ε|) as a 64-bit product shifted by one per-update amount, added saturating.
+//! - Exponents: stored ones are within ±2¹⁴ and one update adds a few hundred, so `i32` cannot
+//!   overflow; the clamp is applied when D is stored.
 //!
 //! # Anti-windup
-//! Selected per configuration ([`AntiWindup`]) and independent of it: a dead zone on |ε| (in sensor
-//! quanta: the ±1-quantum limit cycle does not drive the estimate), an excitation gate on ψᵀPψ, hold.
-//! Skipped samples leave θ and P untouched (no forgetting without information, so no windup).
+//! Selected per configuration ([`AntiWindup`]): a cap on each dⱼ applied in the column loop (one
+//! exponent compare; it bounds trace(P) ≤ d_max·Σⱼ(1 + Σ_{i<j} Uᵢⱼ²)), or a trace,
+//! diagonal or constant-trace bound applied after the update (P scaled, U unchanged). Independent
+//! of it: a dead zone on |ε| (in sensor quanta: the ±1-quantum limit cycle does not drive the
+//! estimate), an excitation gate on ψᵀPψ, an outlier gate, hold. Skipped samples leave θ and P
+//! untouched (no forgetting without information, so no windup).
 //!
 //! # Accuracy
-//! Against a float64 textbook RLS on the same data: `host-tests/tests/rls_vs_f64.rs` (simulated
-//! closed-loop plants: ARX n = 4 within 3.6·10⁻⁴ relative, first-order OE within 4.2·10⁻⁴, both
-//! held to 1·10⁻³) and `emps_vs_f64.rs` (the EMPS recording: ARX(1,1) within 6.2·10⁻⁴, held to
-//! 1·10⁻³; ARX(2,2) 2.2–2.5·10⁻³, held to 4·10⁻³ — its maximum moves by ±50 % with the last bit of
-//! any intermediate, and `emps_arx_rounding_spread` measures that spread over 24 position units:
-//! median 1.3·10⁻³ of final error, as before this kernel's cost work; simulation RMS within 1.5 %).
-//! The limit is U's absolute I8F24 step, not the scalar chain above. A κ headroom of 8 bits (one
-//! `SMMULR` for Uᵢⱼ·Gⱼ) and unsigned-only Newton corrections were both cheaper (−43 / −14
-//! instructions) but widened that spread (mean 1.5 and 1.7·10⁻³, max 3.3 and 4.1·10⁻³, against 1.3
-//! and 2.8·10⁻³; with 24 samples suggestive rather than conclusive), so neither is used.
-
-//! # Cost
-//! One update with n = 4 (λ = 0.99, trace limit; `cargo xtask cost`): ≈ 1,970 instructions, ≈ 2,650
-//! cycles on Cortex-M4F and ≈ 6,890 cycles on M0+ (n = 2: ≈ 1,100 and ≈ 2,560). On the host
-//! (x86-64) a full ARX(2,2) step on the EMPS recording takes ≈ 158 ns. Per update that is
-//! about 78 widening multiplies (f, the α chain with n reciprocals, the U/κ triangle, θ, the trace)
-//! plus the normalisations between them; `BENCHMARKS.md` has the breakdown and why the targets of
-//! 300 / 2,000 cycles are out of reach for this factorisation in integers.
+//! Against a float64 UD update on the same quantised data: `host-tests/tests/rls_vs_f64.rs`
+//! (simulated closed-loop plants), `emps_vs_f64.rs` (the EMPS recording) and `unit_sweep.rs`
+//! (position units 2⁻¹⁰…2¹⁰ × nominal and each recording's own quantum, EMPS ARX(1,1)/(2,2),
+//! Silverbox and twin records: θ within 1·10⁻³ of float64). Measured figures and cost:
+//! [BENCHMARKS.md](../../BENCHMARKS.md) (kernel section).
 
 #![deny(clippy::float_arithmetic)]
 
 use crate::error::ConfigError;
 use crate::ident::status::Status;
-use crate::num::dyadic::Dyadic;
+use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
-use crate::num::wide::{mul_i32_wide, mul_u32_wide, shr_i64};
+use crate::num::wide::{leading_zeros_u32, mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
 use crate::words::{WordReader, WordWriter, Words};
 
-/// Fraction bits of the U factor (I8F24).
+/// Fraction bits of the U factor (I8F24: |Uᵢⱼ| < 128; the nonlinear models' regressors need more
+/// than I4F28's 8, measured: `tests/nonlinear.rs`, `tests/nonlinear_units.rs`).
 pub const U_FRAC_BITS: u32 = 24;
-/// Headroom bits of the gain accumulator κ above the largest gⱼ.
-const KAPPA_HEADROOM_BITS: i32 = 6;
-/// Uᵢⱼ (I8F24) × Gⱼ (gⱼ in κ units · 2^KAPPA_HEADROOM_BITS) → κ units.
-const UG_SHIFT: i32 = U_FRAC_BITS as i32 + KAPPA_HEADROOM_BITS;
-/// Largest supported parameter count (the α accumulation and κ headroom are sized for it).
+/// Fraction bits of the normalised regressor φ̂ (I3F29).
+const PHI_FRAC_BITS: u32 = 29;
+/// Fraction bits of f̂ = Uᵀφ̂ after its one rounding (I11F21): the high word of the I11F53 sum.
+const F_FRAC_BITS: i32 = (U_FRAC_BITS + PHI_FRAC_BITS) as i32 - 32;
+/// Fraction bits of θ (I16F48).
+pub const THETA_FRAC_BITS: u32 = 48;
+/// θ's I16F48 → I12F20 read-out shift.
+const THETA_OUT_SHIFT: u32 = THETA_FRAC_BITS - crate::num::fixed::PARAM_FRAC_BITS;
+/// Largest supported parameter count (f's exact sum and ν's headroom are sized for it).
 pub const MAX_PARAMS: usize = 8;
 
 /// How the covariance is kept from winding up; all limits are on P in parameter units²/signal units².
@@ -126,6 +135,27 @@ pub enum AntiWindup {
         /// The trace P is held at.
         trace: f64,
     },
+    /// Each dⱼ of P = UDUᵀ held at or below `max` rounded down to a power of two, in the update's
+    /// column loop (one exponent compare per column, no trace formed): trace(P) ≤
+    /// max·Σⱼ(1 + Σ_{i<j} Uᵢⱼ²).
+    FactorCap {
+        /// Largest dⱼ (rounded down to a power of two).
+        max: f64,
+    },
+}
+
+impl AntiWindup {
+    /// The cap a [`Self::FactorCap`] applies to each dⱼ: `max` rounded down to a power of two
+    /// (what the float64 reference applies too); `None` for the other variants.
+    pub fn factor_cap(&self) -> Option<Dyadic> {
+        match *self {
+            Self::FactorCap { max } => match Dyadic::from_f64(max) {
+                Some(d) if !d.is_zero() => Some(Dyadic::ONE.shl(d.exp() + 31)),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
 }
 
 /// User-facing RLS settings, in engineering units (floats); build a validated [`RlsConfig`].
@@ -180,6 +210,8 @@ pub struct RlsConfig {
     lambda: Dyadic,
     lambda_inv: Dyadic,
     p0: Dyadic,
+    /// Largest exponent a stored dⱼ keeps (mantissa below 2³²): the factor cap, else [`EXP_MAX`].
+    d_cap_exp: i32,
     dead_zone_i16f16: u32,
     excitation_min: Dyadic,
     bound: Bound,
@@ -230,8 +262,15 @@ impl RlsDesign {
             Some(d) if !d.is_saturated() => d,
             _ => return Err(ConfigError::ExcitationThreshold(self.excitation_threshold)),
         };
+        let mut d_cap_exp = EXP_MAX;
         let bound = match self.anti_windup {
             AntiWindup::None => Bound::None,
+            AntiWindup::FactorCap { max } => {
+                let cap = positive_dyadic(max, ConfigError::CovarianceLimit(max))?;
+                // max ∈ [2^(e+31), 2^(e+32)): dⱼ = m·2^e' < 2^(e+31) for every e' ≤ e − 1.
+                d_cap_exp = cap.exp() - 1;
+                Bound::None
+            }
             AntiWindup::TraceLimit { max } => {
                 Bound::Trace(positive_dyadic(max, ConfigError::CovarianceLimit(max))?)
             }
@@ -246,6 +285,7 @@ impl RlsDesign {
             lambda,
             lambda_inv: lambda.recip(),
             p0,
+            d_cap_exp,
             dead_zone_i16f16: dz.raw().unsigned_abs(),
             excitation_min,
             bound,
@@ -258,8 +298,12 @@ impl RlsDesign {
 /// Everything an update mutates: θ and the UD factors of P.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RlsState<const N: usize> {
+    /// θ in I16F48.
+    theta_i16f48: [i64; N],
+    /// θ read out in I12F20 (rounded, saturating), kept with every change of `theta_i16f48`.
     theta: [ParamI12F20; N],
-    /// Strictly upper part of U in I8F24 (`u[i][j]`, i < j); the rest stays zero.
+    /// Strictly upper part of U in I8F24, column-major: `u[j][i]` = Uᵢⱼ for i < j; the rest
+    /// stays zero.
     u_i8f24: [[i32; N]; N],
     d: [Dyadic; N],
     enabled: bool,
@@ -274,6 +318,7 @@ impl<const N: usize> RlsState<N> {
     pub fn new(config: &RlsConfig, theta0: [ParamI12F20; N]) -> Self {
         let () = Self::SIZE_OK;
         Self {
+            theta_i16f48: theta0.map(|t| i64::from(t.raw()) << THETA_OUT_SHIFT),
             theta: theta0,
             u_i8f24: [[0; N]; N],
             d: [config.p0; N],
@@ -299,17 +344,34 @@ impl<const N: usize> RlsState<N> {
         self.enabled
     }
 
-    /// The current estimate θ.
+    /// The current estimate θ, I12F20 (θ's I16F48 rounded, saturating).
     pub fn theta(&self) -> &[ParamI12F20; N] {
         &self.theta
     }
 
-    /// Overwrites θ (used by the stability projection of the model structures).
-    pub fn set_theta(&mut self, theta: [ParamI12F20; N]) {
-        self.theta = theta;
+    /// The current estimate θ at full precision, raw I16F48.
+    pub fn theta_i16f48(&self) -> &[i64; N] {
+        &self.theta_i16f48
     }
 
-    /// The U factor (strict upper part meaningful), I8F24.
+    /// Overwrites θ (used by the stability projection of the model structures). Entries equal to
+    /// the current read-out keep their I16F48 precision; the others are set exactly.
+    pub fn set_theta(&mut self, theta: [ParamI12F20; N]) {
+        for ((hi, out), new) in self
+            .theta_i16f48
+            .iter_mut()
+            .zip(self.theta.iter_mut())
+            .zip(theta.iter())
+        {
+            if out != new {
+                *hi = i64::from(new.raw()) << THETA_OUT_SHIFT;
+                *out = *new;
+            }
+        }
+    }
+
+    /// The U factor in I8F24, column-major: `u[j][i]` = Uᵢⱼ for i < j (the rest is zero; the
+    /// diagonal is 1, implicit).
     pub fn u_i8f24(&self) -> &[[i32; N]; N] {
         &self.u_i8f24
     }
@@ -319,96 +381,86 @@ impl<const N: usize> RlsState<N> {
         &self.d
     }
 
-    /// `1 + Σ_{i<j} U_ij²` for column j, in U16F48 (saturating).
-    fn column_norm2(&self, j: usize) -> u64 {
-        let mut acc: u64 = 1 << (2 * U_FRAC_BITS);
-        for row in self.u_i8f24.iter().take(j) {
-            let uij = row.get(j).copied().unwrap_or(0);
-            acc = acc.saturating_add(mul_i32_wide(uij, uij).unsigned_abs());
-        }
-        acc
-    }
-
     /// trace(P) = Σⱼ dⱼ (1 + Σ_{i<j} Uᵢⱼ²).
     pub fn trace(&self) -> Dyadic {
-        let mut norms = [0u64; N];
-        for (j, n) in norms.iter_mut().enumerate() {
-            *n = self.column_norm2(j);
-        }
-        trace_of(&self.d, &norms)
+        trace_of(self.u_i8f24.as_flattened(), &self.d, N)
     }
 
     /// The largest diagonal element of P: Pᵢᵢ = dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
     pub fn max_diagonal(&self) -> Dyadic {
-        let mut best = Dyadic::ZERO;
-        for (i, row) in self.u_i8f24.iter().enumerate() {
-            let mut pii = self.d.get(i).copied().unwrap_or(Dyadic::ZERO);
-            for (j, (&uij, dj)) in row.iter().zip(self.d.iter()).enumerate().skip(i + 1) {
-                let _ = j;
-                let u2 = Dyadic::from_u64(i64::from(uij).pow(2).unsigned_abs(), -48);
-                pii = pii.add_trunc(u2.mul_trunc(*dj));
-            }
-            if best.lt(pii) {
-                best = pii;
-            }
-        }
-        best
+        max_diagonal_of(self.u_i8f24.as_flattened(), &self.d, N)
     }
+}
 
-    /// Multiplies P by `factor` (scales D; U is unchanged).
-    fn scale(&mut self, factor: Dyadic) {
-        for dj in &mut self.d {
-            *dj = dj.mul_trunc(factor);
-            if dj.is_zero() {
-                *dj = Dyadic::MIN_POSITIVE;
-            }
+/// Σⱼ dⱼ·(1 + Σ_{i<j} Uᵢⱼ²): the one formula the trace bounds and [`RlsState::trace`] share.
+fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
+    let mut acc: Option<Pos> = None;
+    for (j, (col, dj)) in u.chunks_exact(n.max(1)).zip(d.iter()).enumerate() {
+        let term = trace_term(col.get(..j).unwrap_or_default(), *dj);
+        acc = Some(acc.map_or(term, |a| a.add(term)));
+    }
+    acc.map_or(Dyadic::ZERO, Pos::to_dyadic)
+}
+
+/// dⱼ·(1 + Σ_{i<j} Uᵢⱼ²) for one column (its entries above the diagonal).
+#[inline(always)]
+fn trace_term(col: &[i32], dj: Dyadic) -> Pos {
+    // 1 + Σ Uᵢⱼ² in U8F56, saturating (each square ≤ 2^62).
+    let mut norm: u64 = 1 << (2 * U_FRAC_BITS);
+    for &uij in col {
+        norm = norm.saturating_add(mul_i32_wide(uij, uij).unsigned_abs());
+    }
+    // norm ≥ 2^56: its high word is non-zero, one 32-bit leading-zero count normalises it.
+    let (hi, lo) = ((norm >> 32) as u32, norm as u32);
+    let lz = leading_zeros_u32(hi); // ≤ 7
+    let norm = Pos {
+        m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
+        e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
+    };
+    Pos::of(dj).mul(norm)
+}
+
+/// max over i of dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
+fn max_diagonal_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
+    let mut best = Dyadic::ZERO;
+    for i in 0..n {
+        let mut pii = d.get(i).copied().unwrap_or(Dyadic::ZERO);
+        for (j, dj) in d.iter().enumerate().take(n).skip(i + 1) {
+            let uij = u.get(j * n + i).copied().unwrap_or(0);
+            let u2 = Dyadic::from_u64(
+                mul_i32_wide(uij, uij).unsigned_abs(),
+                -2 * U_FRAC_BITS as i32,
+            );
+            pii = pii.add_trunc(u2.mul_trunc(*dj));
+        }
+        if best.lt(pii) {
+            best = pii;
+        }
+    }
+    best
+}
+
+/// Multiplies P by `factor` (scales D; U is unchanged), keeping every dⱼ positive.
+fn scale_d(d: &mut [Dyadic], factor: Dyadic) {
+    for dj in d {
+        *dj = dj.mul_trunc(factor);
+        if dj.is_zero() {
+            *dj = Dyadic::MIN_POSITIVE;
         }
     }
 }
 
-/// Σⱼ dⱼ·normⱼ with the column norms `1 + Σ_{i<j} Uᵢⱼ²` in U16F48: the one formula the update's
-/// covariance bound and [`RlsState::trace`] share, so both see the same number.
-fn trace_of<const N: usize>(d: &[Dyadic; N], col_norm: &[u64; N]) -> Dyadic {
-    let term = |dj: &Dyadic, n: u64| {
-        // n ≥ 2^48: its high word is non-zero, one 32-bit leading-zero count normalises it.
-        let (hi, lo) = ((n >> 32) as u32, n as u32);
-        let lz = crate::num::wide::leading_zeros_u32(hi); // < 16
-        let norm = Pos {
-            m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
-            e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
-        };
-        // D is positive by construction (zero is floored to the smallest positive value).
-        Pos::of(*dj).mul(norm)
-    };
-    let mut terms = d.iter().zip(col_norm.iter()).map(|(dj, &n)| term(dj, n));
-    let Some(first) = terms.next() else {
-        return Dyadic::ZERO;
-    };
-    let t = terms.fold(first, Pos::add);
-    Dyadic::from_normalised(t.m, t.e)
-}
-
-/// `round(a·b / 2^32)` (half up): one `SMMULR` on Armv7E-M. The caller guarantees the result fits
-/// (it does whenever |a·b| ≤ 2^62, i.e. always for `i32` operands).
+/// `round(a·b / 2^32)` (half up): one `SMMULR` on Armv7E-M; four 16×16 products on Armv6-M.
+/// |a·b| ≤ 2^62 for `i32` operands, so the result always fits.
 #[inline(always)]
 fn mul_hi_round(a: i32, b: i32) -> i32 {
     ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
 }
 
 /// The top 32 bits of a product `p` in `[2^62, 2^64)` after a one-bit normalisation, and that
-/// bit (1 when `p ≥ 2^63`): one variable 64-bit shift, for 64-bit hosts. Same result as
-/// [`normalise_product_halves`] (unit test).
+/// bit (1 when `p ≥ 2^63`); constant shifts on the two words.
 #[inline(always)]
-fn normalise_product_u64(p: u64) -> (u32, u32) {
-    let top = (p >> 63) as u32;
-    (((p << (top ^ 1)) >> 32) as u32, top)
-}
-
-/// [`normalise_product_u64`] with constant shifts on the two words (a variable 64-bit shift costs
-/// ~8 instructions on Cortex-M). Bit 63 is data (set about one time in two): a select, not a
-/// branch (as a branch it was mispredicted ~4 times per update, cachegrind's branch simulation).
-#[inline(always)]
-fn normalise_product_halves(p: u64) -> (u32, u32) {
+fn normalise_product(p: u64) -> (u32, u32) {
     let (hi, lo) = ((p >> 32) as u32, p as u32);
     let top = hi >> 31;
     (
@@ -417,10 +469,8 @@ fn normalise_product_halves(p: u64) -> (u32, u32) {
     )
 }
 
-/// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working form of a
-/// [`Dyadic`], without its exponent clamp and zero case. Exponents of stored values are within
-/// ±2¹⁴ and one update adds a few hundred at most, so `i32` cannot overflow; the clamp is applied
-/// once, when D is stored ([`Dyadic::from_normalised`]). `ZERO` (m = 0) only marks a zero gain.
+/// A positive number `m · 2^e` with `m` in `[2^31, 2^32)`: the update's working float, without a
+/// zero case or an exponent clamp (see the module doc's scaling section).
 #[derive(Clone, Copy)]
 struct Pos {
     m: u32,
@@ -428,8 +478,6 @@ struct Pos {
 }
 
 impl Pos {
-    const ZERO: Self = Self { m: 0, e: 0 };
-
     /// From a positive dyadic (D, λ, 1/λ: never zero).
     #[inline(always)]
     fn of(d: Dyadic) -> Self {
@@ -439,27 +487,86 @@ impl Pos {
         }
     }
 
-    /// `self · 2^k`.
+    /// |x|·2^e for a non-zero `x` (one leading-zero count).
     #[inline(always)]
-    fn shl(self, k: i32) -> Self {
+    fn of_u32(x: u32, e: i32) -> Self {
+        let lz = leading_zeros_u32(x);
         Self {
-            m: self.m,
-            e: self.e + k,
+            m: x << lz,
+            e: e - lz as i32,
         }
     }
 
     /// The product, truncated to 32 bits: one widening multiply and a one-bit normalisation.
     #[inline(always)]
     fn mul(self, rhs: Self) -> Self {
-        let p = mul_u32_wide(self.m, rhs.m); // in [2^62, 2^64)
-        let (m, top) = if cfg!(target_pointer_width = "64") {
-            normalise_product_u64(p)
-        } else {
-            normalise_product_halves(p)
-        };
+        let (m, top) = normalise_product(mul_u32_wide(self.m, rhs.m));
         Self {
             m,
             e: self.e + rhs.e + 31 + top as i32,
+        }
+    }
+
+    /// `1 + self` (truncated to 32 bits): an add to a constant, no general alignment.
+    #[inline(always)]
+    fn one_plus(self) -> Self {
+        if self.e <= -32 {
+            // self < 1: 1 + self = (2^31 + self·2^31)·2^−31, self·2^31 < 2^31.
+            let add = self.m.checked_shr((-31 - self.e) as u32).unwrap_or(0);
+            Self {
+                m: (1 << 31) + add,
+                e: -31,
+            }
+        } else {
+            // 1 = 2^(−e) in units of 2^e (below the kept bits when e ≥ 1).
+            let one = if self.e >= 1 {
+                0
+            } else {
+                1u32 << (-self.e) as u32
+            };
+            let (s, carry) = self.m.overflowing_add(one);
+            if carry {
+                Self {
+                    m: (s >> 1) | (1 << 31),
+                    e: self.e + 1,
+                }
+            } else {
+                Self { m: s, e: self.e }
+            }
+        }
+    }
+
+    /// `1 / self` ([`crate::num::wide::recip_u32`]: within four units of the last kept bit).
+    #[inline(always)]
+    fn recip(self) -> Self {
+        // recip_u32 is within 3 units of 2^63/m ≥ 2^31: keep the mantissa normalised.
+        let x = crate::num::wide::recip_u32(self.m).max(1 << 31);
+        Self {
+            m: x,
+            e: -63 - self.e,
+        }
+    }
+
+    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
+    #[inline(always)]
+    fn shr_round(self, sh: i32) -> u32 {
+        // sh − 1 outside 0..=31 wraps to a shift of 32 or more: 0.
+        let x = self.m.checked_shr(sh.wrapping_sub(1) as u32).unwrap_or(0);
+        (x >> 1) + (x & 1)
+    }
+
+    /// The stored form, exponent clamped: above `cap_exp` the cap itself (flagged in `capped`),
+    /// below [`EXP_MIN`] the smallest positive value.
+    #[inline(always)]
+    fn store(self, cap_exp: i32, capped: &mut bool) -> Dyadic {
+        if self.e > cap_exp {
+            *capped = true;
+            Dyadic::from_parts(u32::MAX, cap_exp)
+        } else if self.e < EXP_MIN {
+            Dyadic::MIN_POSITIVE
+        } else {
+            // m ≥ 2^31 and EXP_MIN ≤ e ≤ cap_exp ≤ EXP_MAX.
+            Dyadic::from_parts(self.m, self.e)
         }
     }
 
@@ -471,8 +578,7 @@ impl Pos {
         } else {
             (rhs, self)
         };
-        let d = hi.e.abs_diff(lo.e);
-        let lo_m = lo.m.checked_shr(d).unwrap_or(0);
+        let lo_m = lo.m.checked_shr(hi.e.abs_diff(lo.e)).unwrap_or(0);
         let (sum, carry) = hi.m.overflowing_add(lo_m);
         if carry {
             Self {
@@ -484,35 +590,35 @@ impl Pos {
         }
     }
 
-    /// `1 / self` ([`crate::num::wide::recip_q63`], within two units of the last kept bit).
+    /// As a dyadic (exponent limits applied).
     #[inline(always)]
-    fn recip(self) -> Self {
-        // recip_q63 is in [2^31 − 1, 2^32): keep the mantissa normalised.
-        let x = (crate::num::wide::recip_q63(self.m) as u32).max(1 << 31);
-        Self {
-            m: x,
-            e: -63 - self.e,
+    fn to_dyadic(self) -> Dyadic {
+        if self.e > EXP_MAX {
+            Dyadic::MAX
+        } else if self.e < EXP_MIN {
+            Dyadic::MIN_POSITIVE
+        } else {
+            Dyadic::from_normalised(self.m, self.e)
         }
     }
+}
 
-    /// The value (≤ 1 up to rounding) as I1F31, rounded, saturating at `i32::MAX`.
-    #[inline(always)]
-    fn to_i1f31(self) -> i32 {
-        // raw = m · 2^(e + 31) = m >> (−31 − e).
-        let sh = -31 - self.e;
-        // Selects, not branches (fewer instructions on Cortex-M4F and M0+, `cargo xtask cost`).
-        let x = self.shr_round(sh);
-        let x = core::hint::select_unpredictable(x > i32::MAX as u32, i32::MAX as u32, x);
-        core::hint::select_unpredictable(sh <= 0, i32::MAX, x as i32)
-    }
+/// ν's headroom H = bitlen((n−1)·2^k) ≥ ⌈log₂(1 + (n−1)·2^k)⌉, where |Uᵢⱼ| < 2^k (k ≥ 0) is
+/// read off the OR of every |Uᵢⱼ| (`u_or`, raw I8F24): |νᵢ| ≤ |g|max·(1 + (n−1)·2^k) (module doc).
+#[inline(always)]
+fn nu_headroom(n: usize, u_or: u32) -> i32 {
+    let k = (32 - leading_zeros_u32(u_or) as i32 - U_FRAC_BITS as i32).max(0);
+    let m = (n.saturating_sub(1) as u32) << k;
+    (32 - leading_zeros_u32(m) as i32).max(1)
+}
 
-    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh < 1` or `sh > 32`).
-    #[inline(always)]
-    fn shr_round(self, sh: i32) -> u32 {
-        // sh − 1 outside 0..=31 (sh < 1 or sh > 32) wraps to a shift of 32 or more: 0.
-        let x = self.m.checked_shr(sh.wrapping_sub(1) as u32).unwrap_or(0);
-        (x >> 1) + (x & 1)
-    }
+/// The parts of a state the kernel works on, as slices (one kernel body for every N).
+struct Parts<'a> {
+    theta_i16f48: &'a mut [i64],
+    theta: &'a mut [ParamI12F20],
+    /// Column-major, n×n.
+    u_i8f24: &'a mut [i32],
+    d: &'a mut [Dyadic],
 }
 
 impl RlsConfig {
@@ -567,276 +673,283 @@ impl RlsConfig {
         } else {
             st.outliers_in_a_row = 0;
         }
-        let status = self.update_gated(st, psi, eps);
+        let parts = Parts {
+            theta_i16f48: &mut st.theta_i16f48,
+            theta: &mut st.theta,
+            u_i8f24: st.u_i8f24.as_flattened_mut(),
+            d: &mut st.d,
+        };
+        let status = self.update_gated(parts, psi, eps);
         if gate_reopened {
             status | Status::OUTLIER
         } else {
             status
         }
     }
+}
 
-    /// The update proper, after the hold, dead-zone and outlier gates.
-    fn update_gated<const N: usize>(
-        &self,
-        st: &mut RlsState<N>,
-        psi: &[SignalI16F16; N],
-        eps: SignalI16F16,
-    ) -> Status {
-        let mut sat = false;
+/// θ's I12F20 read-out: round(θ_I16F48 / 2^28), saturating (flagged), from the two words.
+#[inline(always)]
+fn theta_out(x: i64, sat: &mut bool) -> i32 {
+    let (hi, lo) = ((x >> 32) as i32, x as u32);
+    if hi >> 27 != hi >> 31 {
+        // |θ| ≥ 2^11: beyond I12F20.
+        *sat = true;
+        return if hi < 0 { i32::MIN } else { i32::MAX };
+    }
+    let t = (hi << 4) | (lo >> 28) as i32;
+    t.saturating_add(((lo >> 27) & 1) as i32)
+}
 
-        // f = Uᵀψ, exactly, in I24F40.
-        let mut f_i24f40 = [0i64; N];
-        let mut f_or: u64 = 0;
-        for (j, fj) in f_i24f40.iter_mut().enumerate() {
-            let psi_j = psi.get(j).map_or(0, |p| i64::from(p.raw()));
-            let mut acc = psi_j << U_FRAC_BITS;
-            for (row, p) in st.u_i8f24.iter().zip(psi.iter()).take(j) {
-                let uij = row.get(j).copied().unwrap_or(0);
-                acc = acc.saturating_add(mul_i32_wide(uij, p.raw()));
-            }
-            *fj = acc;
-            // The OR has the bit length of the largest |fⱼ|.
-            f_or |= acc.unsigned_abs();
+/// Uᵢⱼ·x for U in I8F24 and x in ν units, rounded to ν units: |U_raw·x| < 2^62, and below 2^31
+/// after the shift when x is a gain in ν units (the headroom H).
+#[inline(always)]
+fn mul_u_round(u: i32, x: i32) -> i32 {
+    ((mul_i32_wide(u, x) + (1 << (U_FRAC_BITS - 1))) >> U_FRAC_BITS) as i32
+}
+
+/// `a + b`, saturating, flagged.
+#[inline(always)]
+fn add_sat_i32(a: i32, b: i32, sat: &mut bool) -> i32 {
+    match a.checked_add(b) {
+        Some(x) => x,
+        None => {
+            *sat = true;
+            if b > 0 { i32::MAX } else { i32::MIN }
         }
-        if f_or == 0 {
+    }
+}
+
+impl RlsConfig {
+    /// The update proper, after the hold, dead-zone and outlier gates: one body for every N (the
+    /// state's arrays as slices of length n), not inlined, so an image carries it once.
+    #[inline(never)]
+    fn update_gated(&self, p: Parts<'_>, psi: &[SignalI16F16], eps: SignalI16F16) -> Status {
+        let Parts {
+            theta_i16f48,
+            theta,
+            u_i8f24,
+            d,
+        } = p;
+        let n = d.len();
+        if n == 0 || n > MAX_PARAMS || u_i8f24.len() != n * n {
             return Status::LOW_EXCITATION;
         }
-        // Normalise: f̂ = f·2^(31−b) in I1F31 with max |f̂| in [2^30, 2^31); f = 2^k f̃, k = b − 40.
-        let b = crate::num::wide::bit_len_u64(f_or);
-        let k = b - 40;
-        let mut fh_i1f31 = [0i32; N];
-        let sh = b - 32; // f̂ = round(f / 2^(sh + 1))
-        if (0..=31).contains(&sh) {
-            // The usual case (|f| ≥ 2^32, ψ above 2^-8 of a unit): x = f >> sh has |x| < 2^32, built
-            // from 32-bit shifts of the halves (a variable 64-bit shift is a library call on
-            // Armv6-M); rounding it to f̂ takes constant shifts only.
-            for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-                let (hi, lo) = ((*f >> 32) as i32, *f as u32);
-                let x = if sh == 0 {
-                    *f
-                } else {
-                    let lo_x = (lo >> sh) | ((hi as u32) << (32 - sh));
-                    (i64::from(hi >> sh) << 32) | i64::from(lo_x)
-                };
-                *fh = ((x >> 1) + (x & 1)).min(i64::from(i32::MAX)) as i32;
+
+        // φ̂ = 2^σ ψ in I3F29, max |φ̂| in [2^28, 2^29]: one leading-zero count over the OR of |ψᵢ|.
+        let or_abs = psi.iter().fold(0u32, |a, x| a | x.raw().unsigned_abs());
+        if or_abs == 0 {
+            return Status::LOW_EXCITATION;
+        }
+        let b = 32 - leading_zeros_u32(or_abs) as i32; // bit length of max |ψ_raw|, 1..=32
+        let sigma = 16 - b;
+        let mut phi = [0i32; MAX_PARAMS];
+        let sh_phi = PHI_FRAC_BITS as i32 - b;
+        if sh_phi >= 0 {
+            // |ψ_raw| < 2^b: the shifted value is below 2^29.
+            for (ph, x) in phi.iter_mut().zip(psi.iter()) {
+                *ph = x.raw() << sh_phi;
             }
         } else {
-            let mut dummy = false;
-            for (fh, f) in fh_i1f31.iter_mut().zip(f_i24f40.iter()) {
-                *fh = sat_i32(shift_round_i64(*f, 31 - b), &mut dummy);
+            // |ψ| ≥ 2^13 (rare): a rounded right shift by 1..=3.
+            let s = sh_phi.unsigned_abs();
+            for (ph, x) in phi.iter_mut().zip(psi.iter()) {
+                *ph = ((i64::from(x.raw()) + (1 << (s - 1))) >> s) as i32;
             }
         }
 
-        // Pass 1: the scalar chain αⱼ, rⱼ, gⱼ and the new D, on unclamped mantissa/exponent pairs.
-        let lambda_inv = Pos::of(self.lambda_inv);
-        let alpha0 = Pos::of(self.lambda).shl(-2 * k);
-        let mut alpha = alpha0;
-        let mut g = [Pos::ZERO; N];
-        let mut r_i1f31 = [0i32; N];
-        let mut d_new = st.d;
-        for ((dn, fh), (gj, rj)) in d_new
-            .iter_mut()
-            .zip(fh_i1f31.iter())
-            .zip(g.iter_mut().zip(r_i1f31.iter_mut()))
+        // f = Uᵀφ̂: exact I7F57 sum (module doc), rounded once to I7F25 (its high word). With
+        // it, ν's block exponent: gⱼ = dⱼ|f̂ⱼ| < 2^Bⱼ, Bⱼ = e(dⱼ) + 32 + bitlen(f̂ⱼ) − 25.
+        let mut fh = [0i32; MAX_PARAMS];
+        let mut b_max = i32::MIN;
+        let mut u_or = 0u32;
+        for (j, ((col, fj), dj)) in u_i8f24
+            .chunks_exact(n)
+            .zip(fh.iter_mut())
+            .zip(d.iter())
+            .enumerate()
         {
-            let d = Pos::of(*dn);
-            let fa = fh.unsigned_abs();
-            if fa == 0 {
-                // fⱼ = 0: αⱼ = αⱼ₋₁, rⱼ = 1, gⱼ = 0.
-                *rj = i32::MAX;
-                let dl = d.mul(lambda_inv);
-                *dn = Dyadic::from_normalised(dl.m, dl.e);
-                continue;
+            let phi_j = phi.get(j).copied().unwrap_or(0);
+            let mut acc = i64::from(phi_j) << U_FRAC_BITS;
+            for (uij, ph) in col.iter().take(j).zip(phi.iter()) {
+                acc += mul_i32_wide(*uij, *ph);
+                u_or |= uij.unsigned_abs();
             }
-            let lz = crate::num::wide::leading_zeros_u32(fa);
-            let f = Pos {
-                m: fa << lz,
-                e: -31 - lz as i32,
-            };
-            let v = d.mul(f); // dⱼ |f̃ⱼ|
-            let alpha_next = alpha.add(v.mul(f));
-            let rho = alpha_next.recip();
-            let r = alpha.mul(rho);
-            *rj = r.to_i1f31();
-            *gj = v.mul(rho);
-            let dl = d.mul(r).mul(lambda_inv);
-            *dn = Dyadic::from_normalised(dl.m, dl.e);
-            alpha = alpha_next;
+            *fj = ((acc + (1 << 31)) >> 32) as i32;
+            if *fj != 0 {
+                let bl = 32 - leading_zeros_u32(fj.unsigned_abs()) as i32;
+                b_max = b_max.max(dj.exp() + 32 + bl - F_FRAC_BITS);
+            }
         }
-        // Excitation gate: ψᵀPψ = 4ᵏ (α_N − α₀) < threshold.
+        if b_max == i32::MIN {
+            return Status::LOW_EXCITATION;
+        }
+        let headroom = nu_headroom(n, u_or);
+        let e_nu = b_max - 31 + headroom;
+
+        // Excitation gate: ψᵀPψ = 4^−σ Σ dⱼ f̂ⱼ² below the threshold skips the update.
         if !self.excitation_min.is_zero() {
-            let a0 = Dyadic::from_normalised(alpha0.m, alpha0.e);
-            let limit = a0.add_trunc(self.excitation_min.shl(-2 * k));
-            if Dyadic::from_normalised(alpha.m, alpha.e).lt(limit) {
+            let mut s: Option<Pos> = None;
+            for (fj, dj) in fh.iter().zip(d.iter()) {
+                if *fj != 0 {
+                    let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
+                    let t = Pos::of(*dj).mul(f).mul(f);
+                    s = Some(s.map_or(t, |a| a.add(t)));
+                }
+            }
+            let excitation = s.map_or(Dyadic::ZERO, |s| {
+                Pos {
+                    m: s.m,
+                    e: s.e - 2 * sigma,
+                }
+                .to_dyadic()
+            });
+            if excitation.lt(self.excitation_min) {
                 return Status::LOW_EXCITATION;
             }
         }
 
-        // Pass 2: gains in one block exponent e_κ (largest gain below 2^(31−KAPPA_HEADROOM_BITS)),
-        // then U and κ in fixed point.
-        let e_g = g
-            .iter()
-            .filter(|x| x.m != 0)
-            .map(|x| x.e)
-            .max()
-            .unwrap_or(0);
-        let e_kappa = e_g.saturating_add(1 + KAPPA_HEADROOM_BITS);
-        // Uᵢⱼ −= f̃ⱼ κᵢ: I1F31 × (κ·2^e_κ) → I8F24 is a right shift by 7 − e_κ of the product.
-        let s_du = 7 - e_kappa;
-        let du_shift_ok = (1..=62).contains(&s_du);
-        let du_half = if du_shift_ok { 1i64 << (s_du - 1) } else { 0 };
-        let du_smmulr_ok = (1..=32).contains(&s_du);
-        let du_pre_shift = (32 - s_du).clamp(0, 31).unsigned_abs();
-        let norms = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
-        let mut col_norm = [0u64; N];
-        let mut kappa = [0i32; N];
-        for (j, ((gj, &fh_j), (&r_j, cn))) in g
-            .iter()
-            .zip(fh_i1f31.iter())
-            .zip(r_i1f31.iter().zip(col_norm.iter_mut()))
+        // The column loop.
+        let lambda_inv = Pos::of(self.lambda_inv);
+        let mut gamma = Pos {
+            m: lambda_inv.m,
+            e: lambda_inv.e - 2 * sigma,
+        };
+        let mut nu = [0i32; MAX_PARAMS];
+        let (mut sat, mut capped) = (false, false);
+        let cap_exp = self.d_cap_exp;
+        let with_trace = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
+        let mut trace: Option<Pos> = None;
+        for (j, (col, (dj, &fj))) in u_i8f24
+            .chunks_exact_mut(n)
+            .zip(d.iter_mut().zip(fh.iter()))
             .enumerate()
         {
-            // gⱼ in κ units (κⱼ's start) and ·2^KAPPA_HEADROOM_BITS (Gⱼ: Uᵢⱼ·Gⱼ/2^UG_SHIFT is
-            // in κ units).
-            let sh = e_kappa - KAPPA_HEADROOM_BITS - gj.e;
-            // Both below 2^31 (sh ≥ 1 for the largest gain; rounding may reach 2^31: clamped).
-            let g_big = gj.shr_round(sh).min(i32::MAX as u32) as i32;
-            let g_kappa = gj.shr_round(sh + KAPPA_HEADROOM_BITS) as i32;
-            let (g_big, g_kappa) = if fh_j < 0 {
-                (-g_big, -g_kappa)
+            let d_old = Pos::of(*dj);
+            let col_j = col.get_mut(..j).unwrap_or_default();
+            if fj == 0 {
+                // gⱼ = μⱼ = 0: rⱼ = 1, U's column and ν unchanged, νⱼ = 0.
+                *dj = d_old.mul(lambda_inv).store(cap_exp, &mut capped);
             } else {
-                (g_big, g_kappa)
-            };
-            let mut norm: u64 = 1 << (2 * U_FRAC_BITS);
-            for (row, kap) in st.u_i8f24.iter_mut().zip(kappa.iter_mut()).take(j) {
-                if let Some(uij) = row.get_mut(j) {
-                    let u_old = *uij;
-                    // κᵢ·2^(32−s_du) exact in 32 bits (the usual case): one high-word multiply,
-                    // bit-identical to the rounded 64-bit shift of the full product.
-                    let kap_pre = kap.wrapping_shl(du_pre_shift);
-                    let du = if du_smmulr_ok && kap_pre >> du_pre_shift == *kap {
-                        i64::from(mul_hi_round(fh_j, kap_pre))
-                    } else if du_shift_ok {
-                        // |p| ≤ 2^62: adding half a unit cannot overflow.
-                        shr_i64(mul_i32_wide(fh_j, *kap) + du_half, s_du.unsigned_abs())
-                    } else {
-                        shift_round_i64(mul_i32_wide(fh_j, *kap), -s_du)
-                    };
-                    // Usually |du| < 2^31: a 32-bit subtraction with an overflow check; else
-                    // the difference in 64 bits (|du| ≤ 2^62, no overflow) narrowed.
-                    let u_new = if i64::from(du as i32) == du {
-                        match u_old.checked_sub(du as i32) {
-                            Some(x) => x,
-                            None => {
-                                sat = true;
-                                if u_old < 0 { i32::MIN } else { i32::MAX }
-                            }
-                        }
-                    } else {
-                        sat_i32(i64::from(u_old) - du, &mut sat)
-                    };
-                    *uij = u_new;
-                    // κᵢ ← κᵢ rⱼ + Uᵢⱼ(old) gⱼ: both terms below 2^31 in magnitude.
-                    let kr = ((mul_i32_wide(*kap, r_j) + (1 << 30)) >> 31) as i32;
-                    let ug =
-                        ((mul_i32_wide(u_old, g_big) + (1 << (UG_SHIFT - 1))) >> UG_SHIFT) as i32;
-                    *kap = match kr.checked_add(ug) {
-                        Some(x) => x,
-                        None => {
-                            sat = true;
-                            if kr > 0 { i32::MAX } else { i32::MIN }
-                        }
-                    };
-                    if norms {
-                        norm = norm.saturating_add(mul_i32_wide(u_new, u_new).unsigned_abs());
+                let neg = fj < 0;
+                let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
+                let g = d_old.mul(f); // |gⱼ|
+                let mu = f.mul(gamma); // |μⱼ|
+                let r = g.mul(mu).one_plus().recip();
+                gamma = gamma.mul(r);
+                *dj = d_old.mul(r).mul(lambda_inv).store(cap_exp, &mut capped);
+
+                // gⱼ in ν units: below 2^(31−H) (shift ≥ H + 1).
+                let g_nu = g.shr_round(e_nu - g.e) as i32;
+                let g_nu = if neg { -g_nu } else { g_nu };
+                // ΔUᵢⱼ = νᵢ μⱼ in I8F24 = ν_raw · m_μ · 2^(e_ν + e_μ + 28) = hi32(ν_raw · Mⱼ)
+                // with Mⱼ = m_μ >> t, t = −(e_ν + e_μ + 28 + 32); μⱼ's sign is −fⱼ's.
+                let t = -(e_nu + mu.e + U_FRAC_BITS as i32 + 32);
+                if t >= 1 {
+                    let m_mu = mu.shr_round(t).min(i32::MAX as u32) as i32;
+                    let m_mu = if neg { m_mu } else { -m_mu };
+                    for (uij, nui) in col_j.iter_mut().zip(nu.iter_mut()) {
+                        let u_old = *uij;
+                        *uij = add_sat_i32(u_old, mul_hi_round(*nui, m_mu), &mut sat);
+                        *nui = add_sat_i32(*nui, mul_u_round(u_old, g_nu), &mut sat);
+                    }
+                } else {
+                    // A large ΔU (early updates from a large P₀): the 64-bit product, shifted
+                    // and narrowed.
+                    let s = -32 - t;
+                    for (uij, nui) in col_j.iter_mut().zip(nu.iter_mut()) {
+                        let u_old = *uij;
+                        let p = mul_i32_u32_wide(*nui, mu.m);
+                        let du = shift_round_i64(if neg { p } else { -p }, s);
+                        *uij = sat_i32(i64::from(u_old).saturating_add(du), &mut sat);
+                        *nui = add_sat_i32(*nui, mul_u_round(u_old, g_nu), &mut sat);
                     }
                 }
+                if let Some(nj) = nu.get_mut(j) {
+                    *nj = g_nu;
+                }
             }
-            *cn = norm;
-            if let Some(kj) = kappa.get_mut(j) {
-                *kj = g_kappa;
+            if with_trace {
+                // trace(P) of the new factors, column by column ([`trace_of`]'s sum).
+                let term = trace_term(col_j, *dj);
+                trace = Some(trace.map_or(term, |a| a.add(term)));
             }
         }
 
-        // θ ← θ + K ε with K = 2⁻ᵏ κ·2^e_κ: raw F20 = κ·ε_raw·2^(e_κ − k + 4).
-        let s_theta = e_kappa.saturating_sub(k).saturating_add(4);
-        // Usually 0 ≤ s_θ + 32 ≤ 31 and ε·2^(s_θ+32) fits in 32 bits: then the rounded product is
-        // one high-word multiply (SMMULR) of κ by that exact pre-shift, bit-identical to the
-        // general path (the shift loses nothing; both round half up).
-        let a_theta = s_theta.saturating_add(32);
-        let eps_pre = if (0..=31).contains(&a_theta) {
-            let shifted = eps.raw().wrapping_shl(a_theta.unsigned_abs());
-            (shifted >> a_theta == eps.raw()).then_some(shifted)
-        } else {
-            None
-        };
-        for (th, kap) in st.theta.iter_mut().zip(kappa.iter()) {
-            let dth = match eps_pre {
-                // |κ·ε'| ≤ 2^62: the high word is below 2^30, no narrowing needed.
-                Some(e) => mul_hi_round(*kap, e),
-                None => sat_i32(
-                    shift_round_i64(mul_i32_wide(*kap, eps.raw()), s_theta),
-                    &mut sat,
-                ),
-            };
-            let new = match th.raw().checked_add(dth) {
-                Some(x) => x,
-                None => {
-                    sat = true;
-                    if dth > 0 { i32::MAX } else { i32::MIN }
-                }
-            };
-            *th = ParamI12F20::from_raw(new);
+        // θ ← θ + 2^σ ν γ_N ε with c = γ_N |ε|: Kᵢ = round(νᵢ·(m_c/2)/2^32) (one high-word
+        // multiply; m_c/2 < 2^31), Δθ in I16F48 = Kᵢ·2^a, a = e_ν + e_c + σ + 48 + 33 (one shift
+        // amount per update: usually a left shift of a 32-bit Kᵢ, exact).
+        let e_abs = eps.raw().unsigned_abs();
+        if e_abs != 0 {
+            let c = gamma.mul(Pos::of_u32(e_abs, -16));
+            let m_c = (c.m >> 1) as i32;
+            let m_c = if eps.raw() < 0 { -m_c } else { m_c };
+            let a = e_nu + c.e + sigma + THETA_FRAC_BITS as i32 + 33;
+            for ((th, out), &nui) in theta_i16f48.iter_mut().zip(theta.iter_mut()).zip(nu.iter()) {
+                let k = mul_hi_round(nui, m_c);
+                let dth = if (0..=31).contains(&a) {
+                    // |Kᵢ| < 2^31: |Δθ| < 2^62.
+                    i64::from(k) << a
+                } else {
+                    shift_round_i64(i64::from(k), a)
+                };
+                let new = match th.checked_add(dth) {
+                    Some(x) => x,
+                    None => {
+                        sat = true;
+                        if dth > 0 { i64::MAX } else { i64::MIN }
+                    }
+                };
+                *th = new;
+                *out = ParamI12F20::from_raw(theta_out(new, &mut sat));
+            }
         }
-        st.d = d_new;
 
         let mut status = Status::UPDATED;
         status.set_if(Status::SATURATED, sat);
-        status |= self.bound_covariance(st, &col_norm);
-        status.set_if(
-            Status::COVARIANCE_SATURATED,
-            st.d.iter().any(|d| d.is_saturated()),
-        );
-        status
+        if capped {
+            if cap_exp < EXP_MAX {
+                status |= Status::COVARIANCE_BOUNDED;
+            } else {
+                status |= Status::COVARIANCE_SATURATED;
+            }
+        }
+        status | self.bound_covariance(u_i8f24, d, trace.map_or(Dyadic::ZERO, Pos::to_dyadic))
     }
 
-    /// Applies the configured covariance limit after an update; `col_norm` holds the column norms
-    /// of the new U ([`RlsState::column_norm2`]'s sums) when the bound is on the trace.
-    fn bound_covariance<const N: usize>(
-        &self,
-        st: &mut RlsState<N>,
-        col_norm: &[u64; N],
-    ) -> Status {
+    /// Applies a trace, diagonal or constant-trace bound after an update (scales D); `tr` is
+    /// trace(P) of the new factors when the bound is on the trace.
+    fn bound_covariance(&self, u: &[i32], d: &mut [Dyadic], tr: Dyadic) -> Status {
+        let n = d.len();
         match self.bound {
             Bound::None => Status::NONE,
             Bound::Trace(max) => {
-                let tr = trace_of(&st.d, col_norm);
                 if max.lt(tr) {
-                    st.scale(max.mul_trunc(tr.recip()));
+                    scale_d(d, max.mul_trunc(tr.recip()));
                     Status::COVARIANCE_BOUNDED
                 } else {
                     Status::NONE
                 }
             }
             Bound::Diagonal(max) => {
-                let pmax = st.max_diagonal();
+                let pmax = max_diagonal_of(u, d, n);
                 if max.lt(pmax) {
-                    st.scale(max.mul_trunc(pmax.recip()));
+                    scale_d(d, max.mul_trunc(pmax.recip()));
                     Status::COVARIANCE_BOUNDED
                 } else {
                     Status::NONE
                 }
             }
             Bound::ConstantTrace(c) => {
-                let tr = trace_of(&st.d, col_norm);
-                st.scale(c.mul_trunc(tr.recip()));
+                scale_d(d, c.mul_trunc(tr.recip()));
                 Status::TRACE_NORMALISED
             }
         }
     }
 }
 
-/// Words: the variant's index (None 0, TraceLimit 1, DiagonalLimit 2, ConstantTrace 3), then its limit.
+/// Words: the variant's index (None 0, TraceLimit 1, DiagonalLimit 2, ConstantTrace 3, FactorCap 4),
+/// then its limit.
 impl Words for AntiWindup {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
         match *self {
@@ -853,6 +966,10 @@ impl Words for AntiWindup {
                 w.word(3)?;
                 trace.put(w)
             }
+            Self::FactorCap { max } => {
+                w.word(4)?;
+                max.put(w)
+            }
         }
     }
     fn take(r: &mut WordReader<'_>) -> Self {
@@ -863,6 +980,7 @@ impl Words for AntiWindup {
             3 => Self::ConstantTrace {
                 trace: f64::take(r),
             },
+            4 => Self::FactorCap { max: f64::take(r) },
             _ => {
                 r.fail();
                 Self::None
@@ -905,27 +1023,68 @@ mod tests {
     }
 
     #[test]
-    fn product_normalisations_agree() {
+    fn product_normalisation_is_the_one_bit_shift() {
         let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
         for _ in 0..100_000 {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
             let (a, b) = ((x as u32) | 1 << 31, ((x >> 32) as u32) | 1 << 31);
-            let p = crate::num::wide::mul_u32_wide(a, b);
-            assert_eq!(
-                normalise_product_u64(p),
-                normalise_product_halves(p),
-                "{p:#x}"
-            );
+            let p = mul_u32_wide(a, b);
+            let top = (p >> 63) as u32;
+            assert_eq!(normalise_product(p), (((p << (top ^ 1)) >> 32) as u32, top));
         }
-        for p in [1u64 << 62, (1 << 63) - 1, 1 << 63, u64::MAX] {
-            assert_eq!(
-                normalise_product_u64(p),
-                normalise_product_halves(p),
-                "{p:#x}"
-            );
+    }
+
+    fn pos_f64(p: Pos) -> f64 {
+        f64::from(p.m) * 2f64.powi(p.e)
+    }
+
+    /// 1 + q and its reciprocal against f64 over q from 2⁻⁷⁰ to 2⁷⁰ (the column chain's two
+    /// non-multiplies): within 2⁻³⁰ relative.
+    #[test]
+    fn one_plus_and_reciprocal_against_f64() {
+        let mut x: u32 = 0x1234_5678;
+        for e in -100..40 {
+            for _ in 0..50 {
+                x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                let q = Pos { m: x | 1 << 31, e };
+                let w = q.one_plus();
+                assert!(w.m >= 1 << 31);
+                let want = 1.0 + pos_f64(q);
+                assert!(((pos_f64(w) - want) / want).abs() < 2f64.powi(-30), "{e}");
+                let r = w.recip();
+                assert!((pos_f64(r) * want - 1.0).abs() < 2f64.powi(-29), "{e}");
+            }
         }
+    }
+
+    /// The factor cap holds every dⱼ at or below max rounded down to a power of two, flagged.
+    #[test]
+    fn factor_cap_bounds_every_d_under_forgetting_without_excitation() {
+        let cfg = RlsDesign {
+            lambda: 0.9,
+            p0: 1.0,
+            anti_windup: AntiWindup::FactorCap { max: 50.0 },
+            ..RlsDesign::default()
+        }
+        .build()
+        .unwrap();
+        let mut st = RlsState::<3>::new(&cfg, [ParamI12F20::ZERO; 3]);
+        let mut bounded = 0;
+        for t in 0..2000 {
+            let e = if t % 2 == 0 { sig(0.01) } else { sig(-0.01) };
+            let s = cfg.update(&mut st, &[sig(1.0), sig(1.0), sig(0.5)], e);
+            bounded += usize::from(s.contains(Status::COVARIANCE_BOUNDED));
+            for d in st.d() {
+                assert!(d.to_f64() <= 32.0, "{}", d.to_f64());
+            }
+        }
+        assert!(bounded > 1000, "{bounded}");
+        assert_eq!(
+            AntiWindup::FactorCap { max: 50.0 }.factor_cap(),
+            Dyadic::from_f64(32.0)
+        );
     }
 
     /// Runs a noiseless 2-parameter regression and checks the estimate converges.

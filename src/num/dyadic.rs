@@ -113,6 +113,13 @@ impl Dyadic {
         }
     }
 
+    /// `mant · 2^exp` as it is: the caller guarantees `2^31 ≤ mant` and `EXP_MIN ≤ exp ≤ EXP_MAX`
+    /// (the RLS kernel's store, after its own clamps).
+    #[inline(always)]
+    pub(crate) const fn from_parts(mant: u32, exp: i32) -> Self {
+        Self { mant, exp }
+    }
+
     /// Applies the exponent limits to a normalised mantissa.
     const fn clamped(mant: u32, exp: i32) -> Self {
         if exp > EXP_MAX {

@@ -185,6 +185,27 @@ pub fn recip_q63(m: u32) -> u64 {
     u64::from(x)
 }
 
+/// `≈ 2^63 / m` for a normalised mantissa `2^31 ≤ m < 2^32`, within 3 units of the floor (result
+/// ≤ `u32::MAX`): the same 256-entry seed as [`recip_q63`] and two Newton steps in 32-bit
+/// arithmetic — each one unsigned high-word multiply (the residual e = (1 − m·x/2^63)·2^31, below
+/// 2^23 after the seed) and one signed high-word multiply (the correction x·e/2^31). No division,
+/// no 64-bit add: the reciprocal of the RLS kernel's column chain.
+#[inline(always)]
+pub fn recip_u32(m: u32) -> u32 {
+    let idx = ((m >> 23) & 0xFF) as usize;
+    let mut x = u32::from(RECIP_SEED_U1F15.get(idx).copied().unwrap_or(0x8000)) << 16;
+    for _ in 0..2 {
+        let p = (mul_u32_wide(m, x) >> 32) as u32;
+        let e = (1u32 << 31).wrapping_sub(p) as i32;
+        // x·e/2^31 = hi32((4e)·(x/2)): |4e| < 2^25, x/2 < 2^31.
+        let corr = (mul_i32_wide(e << 2, (x >> 1) as i32) >> 32) as i32;
+        // Newton's iterate stays below 2^63/m ≤ 2^32 but for the truncations of a few units:
+        // only the last step can wrap past 2^32 (m within a few units of 2^31), to below 2^30.
+        x = x.wrapping_add_signed(corr);
+    }
+    if x < 1 << 30 { u32::MAX } else { x }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,6 +295,27 @@ mod tests {
                 assert_eq!(shr_i64(y, s), y >> s, "{y} >> {s}");
             }
         }
+    }
+
+    #[test]
+    fn reciprocal_u32_is_within_three_units_of_the_floor() {
+        let mut m: u32 = 1 << 31;
+        let mut worst = 0i64;
+        loop {
+            let exact = ((1u64 << 63) / u64::from(m)).min(u64::from(u32::MAX)) as i64;
+            worst = worst.max((i64::from(recip_u32(m)) - exact).abs());
+            match m.checked_add(654_321) {
+                Some(next) => m = next,
+                None => break,
+            }
+        }
+        for i in 0..256u64 {
+            for m in [(256 + i) << 23, ((257 + i) << 23) - 1] {
+                let exact = ((1u64 << 63) / m).min(u64::from(u32::MAX)) as i64;
+                worst = worst.max((i64::from(recip_u32(m as u32)) - exact).abs());
+            }
+        }
+        assert!(worst <= 3, "{worst}");
     }
 
     #[test]

@@ -283,11 +283,12 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 17] = [
+const BENCH_FNS: [&str; 18] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls3_update",
     "bench_rls4_update",
+    "bench_rls4_trace_update",
     "bench_arx4_step",
     "bench_neuron_eval",
     "bench_decimate_push",

@@ -46,6 +46,8 @@ pub struct RlsF64<const N: usize> {
     pub enabled: bool,
     /// True when the last update's forced decision differed from this reference's own.
     pub last_overridden: bool,
+    /// Set when an update capped some dⱼ ([`AntiWindup::FactorCap`]).
+    capped: bool,
 }
 
 impl<const N: usize> RlsF64<N> {
@@ -67,6 +69,7 @@ impl<const N: usize> RlsF64<N> {
             anti_windup: design.anti_windup,
             enabled: true,
             last_overridden: false,
+            capped: false,
         }
     }
 
@@ -159,6 +162,13 @@ impl<const N: usize> RlsF64<N> {
             let r = alpha_prev / alpha;
             let g = v / alpha;
             self.d[j] *= r / self.lambda;
+            if let Some(cap) = self.anti_windup.factor_cap() {
+                let cap = cap.to_f64();
+                if self.d[j] > cap {
+                    self.d[j] = cap;
+                    self.capped = true;
+                }
+            }
             for i in 0..j {
                 let u_old = self.u[i][j];
                 self.u[i][j] -= f[j] * kappa[i];
@@ -201,6 +211,7 @@ impl<const N: usize> RlsF64<N> {
             (_, Some(false)) => return Status::DEAD_ZONE,
             _ => {}
         }
+        self.capped = false;
         if self.form == CovarianceForm::Bierman {
             let k = self.bierman(psi);
             for (th, ki) in self.theta.iter_mut().zip(k.iter()) {
@@ -229,8 +240,11 @@ impl<const N: usize> RlsF64<N> {
             }
         }
         let mut status = Status::UPDATED;
+        if self.capped {
+            status |= Status::COVARIANCE_BOUNDED;
+        }
         match self.anti_windup {
-            AntiWindup::None => {}
+            AntiWindup::None | AntiWindup::FactorCap { .. } => {}
             AntiWindup::TraceLimit { max } => {
                 let tr = self.trace();
                 if tr > max {
