@@ -97,7 +97,9 @@ use crate::error::ConfigError;
 use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
-use crate::num::wide::{leading_zeros_u32, mul_i32_u32_wide, mul_i32_wide, mul_u32_wide};
+use crate::num::wide::{
+    bit_len_u64, leading_zeros_u32, mul_i32_u32_wide, mul_i32_wide, mul_u32_wide,
+};
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Fraction bits of the U factor (I8F24: |Uᵢⱼ| < 128; the nonlinear models' regressors need more
@@ -394,50 +396,49 @@ impl<const N: usize> RlsState<N> {
 
 /// Σⱼ dⱼ·(1 + Σ_{i<j} Uᵢⱼ²): the one formula the trace bounds and [`RlsState::trace`] share.
 fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
-    let mut acc: Option<Pos> = None;
+    let mut acc = Pos::TINY;
     for (j, (col, dj)) in u.chunks_exact(n.max(1)).zip(d.iter()).enumerate() {
-        let term = trace_term(col.get(..j).unwrap_or_default(), *dj);
-        acc = Some(acc.map_or(term, |a| a.add(term)));
+        acc = acc.add(trace_term(col.get(..j).unwrap_or_default(), *dj));
     }
-    acc.map_or(Dyadic::ZERO, Pos::to_dyadic)
+    acc.to_dyadic()
 }
 
-/// dⱼ·(1 + Σ_{i<j} Uᵢⱼ²) for one column (its entries above the diagonal).
+/// dⱼ·(1 + Σ_{i<j} Uᵢⱼ²) for one column (its entries above the diagonal), the squares truncated
+/// to U48F16 (one high-word multiply each; the sum is below 2³⁴, no overflow).
 #[inline(always)]
 fn trace_term(col: &[i32], dj: Dyadic) -> Pos {
-    // 1 + Σ Uᵢⱼ² in U8F56, saturating (each square ≤ 2^62).
-    let mut norm: u64 = 1 << (2 * U_FRAC_BITS);
+    let mut norm: u64 = 1 << 16;
     for &uij in col {
-        norm = norm.saturating_add(mul_i32_wide(uij, uij).unsigned_abs());
+        // U² < 2^14: U²·2^16 < 2^30.
+        norm += (mul_i32_wide(uij, uij) >> 32) as u64;
     }
-    // norm ≥ 2^56: its high word is non-zero, one 32-bit leading-zero count normalises it.
-    let (hi, lo) = ((norm >> 32) as u32, norm as u32);
-    let lz = leading_zeros_u32(hi); // ≤ 7
+    // 2^16 ≤ norm < 2^34: normalise to a 32-bit mantissa.
+    let bl = bit_len_u64(norm);
     let norm = Pos {
-        m: (hi << lz) | ((lo >> 1) >> (31 - lz)),
-        e: 32 - lz as i32 - 2 * U_FRAC_BITS as i32,
+        m: ((norm << (64 - bl)) >> 32) as u32,
+        e: bl - 32 - 16,
     };
     Pos::of(dj).mul(norm)
 }
 
-/// max over i of dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ.
+/// max over i of dᵢ + Σ_{j>i} Uᵢⱼ² dⱼ, the squares truncated to U48F16 as in [`trace_term`].
 fn max_diagonal_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
-    let mut best = Dyadic::ZERO;
-    for i in 0..n {
-        let mut pii = d.get(i).copied().unwrap_or(Dyadic::ZERO);
+    let mut best = Pos::TINY;
+    for (i, di) in d.iter().enumerate().take(n) {
+        let mut pii = Pos::of(*di);
         for (j, dj) in d.iter().enumerate().take(n).skip(i + 1) {
             let uij = u.get(j * n + i).copied().unwrap_or(0);
-            let u2 = Dyadic::from_u64(
-                mul_i32_wide(uij, uij).unsigned_abs(),
-                -2 * U_FRAC_BITS as i32,
-            );
-            pii = pii.add_trunc(u2.mul_trunc(*dj));
+            // U² < 2^14: U²·2^16 < 2^30.
+            let u2 = (mul_i32_wide(uij, uij) >> 32) as u32;
+            if u2 != 0 {
+                pii = pii.add(Pos::of_u32(u2, -16).mul(Pos::of(*dj)));
+            }
         }
-        if best.lt(pii) {
+        if (pii.e, pii.m) > (best.e, best.m) {
             best = pii;
         }
     }
-    best
+    best.to_dyadic()
 }
 
 /// Multiplies P by `factor` (scales D; U is unchanged), keeping every dⱼ positive.
@@ -478,6 +479,13 @@ struct Pos {
 }
 
 impl Pos {
+    /// A start for sums: below the smallest [`Dyadic`] (2^EXP_MIN) by far, so adding it to any
+    /// stored value changes nothing, and it is stored as the smallest positive value.
+    const TINY: Self = Self {
+        m: 1 << 31,
+        e: 4 * EXP_MIN,
+    };
+
     /// From a positive dyadic (D, λ, 1/λ: never zero).
     #[inline(always)]
     fn of(d: Dyadic) -> Self {
@@ -789,21 +797,18 @@ impl RlsConfig {
 
         // Excitation gate: ψᵀPψ = 4^−σ Σ dⱼ f̂ⱼ² below the threshold skips the update.
         if !self.excitation_min.is_zero() {
-            let mut s: Option<Pos> = None;
+            let mut s = Pos::TINY;
             for (fj, dj) in fh.iter().zip(d.iter()) {
                 if *fj != 0 {
                     let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
-                    let t = Pos::of(*dj).mul(f).mul(f);
-                    s = Some(s.map_or(t, |a| a.add(t)));
+                    s = s.add(Pos::of(*dj).mul(f).mul(f));
                 }
             }
-            let excitation = s.map_or(Dyadic::ZERO, |s| {
-                Pos {
-                    m: s.m,
-                    e: s.e - 2 * sigma,
-                }
-                .to_dyadic()
-            });
+            let excitation = Pos {
+                m: s.m,
+                e: s.e - 2 * sigma,
+            }
+            .to_dyadic();
             if excitation.lt(self.excitation_min) {
                 return Status::LOW_EXCITATION;
             }
@@ -819,7 +824,7 @@ impl RlsConfig {
         let (mut sat, mut capped) = (false, false);
         let cap_exp = self.d_cap_exp;
         let with_trace = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
-        let mut trace: Option<Pos> = None;
+        let mut trace = Pos::TINY;
         for (j, (col, (dj, &fj))) in u_i8f24
             .chunks_exact_mut(n)
             .zip(d.iter_mut().zip(fh.iter()))
@@ -872,7 +877,7 @@ impl RlsConfig {
             if with_trace {
                 // trace(P) of the new factors, column by column ([`trace_of`]'s sum).
                 let term = trace_term(col_j, *dj);
-                trace = Some(trace.map_or(term, |a| a.add(term)));
+                trace = trace.add(term);
             }
         }
 
@@ -914,7 +919,7 @@ impl RlsConfig {
                 status |= Status::COVARIANCE_SATURATED;
             }
         }
-        status | self.bound_covariance(u_i8f24, d, trace.map_or(Dyadic::ZERO, Pos::to_dyadic))
+        status | self.bound_covariance(u_i8f24, d, trace.to_dyadic())
     }
 
     /// Applies a trace, diagonal or constant-trace bound after an update (scales D); `tr` is
