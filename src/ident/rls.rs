@@ -42,7 +42,7 @@
 //!   U holds ratios of parameter scales: it stays in range when the regressors are of comparable
 //!   magnitude, which the boundary's normalisation provides ([`crate::num::boundary`]).
 //! - **No division.** Each column needs one reciprocal of a number ≥ 1
-//!   ([`crate::num::wide::recip_q63`]: a 256-entry seed and two Newton steps); 1 + qⱼ is an add to
+//!   ([`crate::num::wide::recip_u32`]: a 256-entry seed and two 32-bit Newton steps); 1 + qⱼ is an add to
 //!   a constant, not a general floating add.
 //! - **One pass.** ν's block exponent is known before the first column (from the exponents of D
 //!   and the bit lengths of f), so U, ν and D are updated column by column in one loop.

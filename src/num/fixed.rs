@@ -12,7 +12,7 @@
 //! |---|---|---|---|---|
 //! | position y, reference r, error r − y | [`SignalI16F16`] | sensor quanta (tracks) | ±32,768 | 1.5·10⁻⁵ |
 //! | drive u | [`SignalI16F16`] | fraction of full scale (u / u_max) | ±32,768 (±1 in spec) | 1.5·10⁻⁵ |
-//! | model parameter θ | [`ParamI12F20`] | quanta per unit of regressor | ±2,048 | 9.5·10⁻⁷ |
+//! | model parameter θ | [`ParamI12F20`] (the RLS state keeps it in I16F48, `i64`) | quanta per unit of regressor | ±2,048 | 9.5·10⁻⁷ |
 //! | covariance factor U (off-diagonal) | `i32` I8F24 in [`crate::ident::rls`] | ratio of parameter units | ±128 | 6·10⁻⁸ |
 //! | covariance factor D, α, 1/α | [`crate::num::dyadic::Dyadic`] | parameter² per signal² | 2^±16384 | 2⁻³² relative |
 //!
