@@ -75,11 +75,12 @@ fn rls_design(b: &mut Bytes) -> RlsDesign {
         p0: 10f64.powf(-6.0 + 14.0 * b.unit()),
         dead_zone,
         excitation_threshold: if b.u8() % 2 == 0 { 0.0 } else { 10f64.powf(-9.0 + 12.0 * b.unit()) },
-        anti_windup: match b.u8() % 4 {
+        anti_windup: match b.u8() % 5 {
             0 => AntiWindup::None,
             1 => AntiWindup::TraceLimit { max: 10f64.powf(-3.0 + 9.0 * b.unit()) },
             2 => AntiWindup::DiagonalLimit { max: 10f64.powf(-3.0 + 9.0 * b.unit()) },
-            _ => AntiWindup::ConstantTrace { trace: 10f64.powf(-3.0 + 9.0 * b.unit()) },
+            3 => AntiWindup::ConstantTrace { trace: 10f64.powf(-3.0 + 9.0 * b.unit()) },
+            _ => AntiWindup::FactorCap { max: 10f64.powf(-3.0 + 9.0 * b.unit()) },
         },
         outlier_threshold: if b.u8() % 2 == 0 { 0.0 } else { dead_zone + 0.1 + 100.0 * b.unit() },
         outlier_limit: u16::from(b.u8()),

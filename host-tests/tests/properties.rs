@@ -27,6 +27,7 @@ fn anti_windup() -> impl Strategy<Value = AntiWindup> {
         (1e-3f64..1e6).prop_map(|max| AntiWindup::TraceLimit { max }),
         (1e-3f64..1e6).prop_map(|max| AntiWindup::DiagonalLimit { max }),
         (1e-3f64..1e6).prop_map(|trace| AntiWindup::ConstantTrace { trace }),
+        (1e-3f64..1e6).prop_map(|max| AntiWindup::FactorCap { max }),
     ]
 }
 
@@ -70,6 +71,17 @@ fn check_invariants<const N: usize>(
     }
     let tr = st.trace();
     prop_assert!(!tr.is_zero());
+    if let Some(cap) = cfg_design.anti_windup.factor_cap() {
+        // Every update stores each dⱼ at or below the cap; P₀ may exceed it until the first one.
+        let limit = cap.to_f64().max(cfg_design.p0);
+        for j in 0..N {
+            prop_assert!(
+                st.d()[j].to_f64() <= limit,
+                "d[{j}] = {} > {limit}",
+                st.d()[j].to_f64()
+            );
+        }
+    }
     if let AntiWindup::TraceLimit { max } = cfg_design.anti_windup {
         let limit = Dyadic::from_f64(max).unwrap().to_f64();
         // Only updates bound the trace; P₀ itself may exceed the limit until the first update.
