@@ -692,72 +692,10 @@ fn output_map_acts_only_in_settle_and_identity_is_exact() {
     assert_eq!(t_map.len(), t_none.len());
 }
 
-/// Time-optimal seeks (`SeekMode::TimeOptimal`, `sledid::control::seek`) on the nominal sled,
-/// designed from the nominal prior: 100 seek commands of 20–2,000 tracks (the reference steps to
-/// the target; 30 ms dwells), each starting from rest (stiction to break), the long ones at full
-/// drive (saturation), all ending at rest in the target's band. Asserted: every seek settles, no
-/// limit-cycle pulse, the true holding error under one quantum, and a median settling time at
-/// most a third of the reference-following servo's 30.5 ms (issue 14: ≥ 3× shorter). Measured
-/// 8.19 ms median (p90 11.8, max 28.7), overshoot ≤ 11 quanta, holding error ≤ 0.47. A law
-/// without the braking curve (full drive to the target) overshoots and hunts; one braking on the
-/// increments instead of the sampled velocity rings (both tried).
-///
-/// Pulses: after a time-optimal seek a sled at rest one cell off takes its fine steps at once
-/// (`scheduled::rest`, eager), and a fine step is one drive pulse late in the dwell: 15 of the
-/// 100 seeks have one (0 before the eager rule, which left sleds one cell off to flicker to two
-/// on sensor noise). A seek whose pulses exceed its fine steps started (at most `FINE_STEPS_MAX`)
-/// is rare but not absent, and which seeks show one moves with the last bit of the identifier
-/// (seed 1 has none with the previous RLS kernel and one with the one-pass kernel of issue 24), so
-/// it is asserted as a statistic over seeds 1–6 (600 seeks): measured with the previous kernel
-/// 0, 0, 2, 1, 2, 1 (6; seeds 7–12: 1, 0, 1, 1, 0, 0) and with the one-pass kernel 1, 2, 0, 1,
-/// 1, 3 (8); asserted ≤ 9 in all and ≤ 3 per seed. Any hunting of the settle or hold law (a
-/// pulse in most seeks) trips it.
-#[test]
-fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
-    let mut params = TwinParams::default();
-    params.reference.ref_rise_s = params.plant.ts_s;
-    params.reference.dwell_s = 0.03;
-    let design = sledid_host::control::design_from_prior(
-        &params,
-        &sledid_host::twin::PlantParams::default(),
-    )
-    .unwrap()
-    .with_time_optimal_seeks();
-    let run = sledid_host::control::run_with(&params, 1, 100, Some(&design)).unwrap();
-    let s = &run.summary;
-    println!(
-        "time-optimal, nominal: median {:.2} p90 {:.2} max {:.2} ms, pulses {}, unsettled {}, \
-         overshoot max {}, holding error {:.2}",
-        s.settling_ms.median,
-        s.settling_ms.p90,
-        s.settling_ms.max,
-        s.limit_cycle_pulses,
-        s.unsettled,
-        s.overshoot_quanta.max,
-        s.hold_true_error_quanta.max
-    );
-    assert_eq!(s.seeks, 100);
-    assert_eq!(s.unsettled, 0);
-    let mut over = Vec::new();
-    for seed in 1..=6 {
-        let (n, ..) = time_optimal_run(seed);
-        over.push(n);
-    }
-    println!("seeks with a pulse beyond their fine steps, seeds 1–6: {over:?}");
-    assert!(over.iter().sum::<usize>() <= 9, "{over:?}");
-    assert!(over.iter().all(|&n| n <= 3), "{over:?}");
-    assert!(
-        s.hold_true_error_quanta.max < 1.0,
-        "{:?}",
-        s.hold_true_error_quanta
-    );
-    assert!(s.settling_ms.median <= 30.5 / 3.0, "{:?}", s.settling_ms);
-}
-
-/// One seed of [`time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled`]'s run: the
-/// seeks whose pulses exceed their fine steps, the median settling time (ms) and the largest true
-/// holding error (quanta).
-fn time_optimal_run(seed: u64) -> (usize, f64, f64, usize) {
+/// One run of [`time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled`]: seeds the
+/// seek commands and the noise; returns the run and the number of seeks whose pulses exceed
+/// their fine steps started (at most `FINE_STEPS_MAX`).
+fn time_optimal_run(seed: u64) -> (sledid_host::control::run::ControlRun, usize) {
     let mut params = TwinParams::default();
     params.reference.ref_rise_s = params.plant.ts_s;
     params.reference.dwell_s = 0.03;
@@ -769,32 +707,65 @@ fn time_optimal_run(seed: u64) -> (usize, f64, f64, usize) {
     .with_time_optimal_seeks();
     let run = sledid_host::control::run_with(&params, seed, 100, Some(&design)).unwrap();
     let fine_max = usize::from(sledid::control::scheduled::rest::FINE_STEPS_MAX);
-    let fine = run.fine_steps_per_seek();
     let over = run
         .twin
         .seek_stats()
         .iter()
-        .zip(fine)
-        .filter(|(st, f)| st.limit_cycle.pulses > (*f).min(fine_max))
+        .zip(run.fine_steps_per_seek())
+        .filter(|(st, fine)| st.limit_cycle.pulses > (*fine).min(fine_max))
         .count();
-    let s = &run.summary;
-    (
-        over,
-        s.settling_ms.median,
-        s.hold_true_error_quanta.max,
-        s.unsettled,
-    )
+    (run, over)
 }
 
-/// The spread over seeds of the time-optimal run's figures (a measurement, run on demand:
-/// `cargo test --release -p sledid-host --test scheduled_control -- --ignored --nocapture`).
+/// Time-optimal seeks (`SeekMode::TimeOptimal`, `sledid::control::seek`) on the nominal sled,
+/// designed from the nominal prior: 100 seek commands of 20–2,000 tracks (the reference steps to
+/// the target; 30 ms dwells), each starting from rest (stiction to break), the long ones at full
+/// drive (saturation), all ending at rest in the target's band. Asserted on seeds 1–6: every seek
+/// settles, the true holding error under one quantum, and a median settling time at most a third
+/// of the reference-following servo's 30.5 ms (issue 14: ≥ 3× shorter). Measured (seeds 1–6)
+/// medians 10.01, 8.64, 9.55, 9.55, 10.01, 10.01 ms, holding error ≤ 0.52.
+///
+/// Pulses: a fine step (a sled at rest one cell off stepping toward the target) is one drive
+/// pulse late in the dwell and not a limit cycle; a seek whose pulses exceed its fine steps
+/// started (at most `FINE_STEPS_MAX`) made a corrective pulse of another kind. With the
+/// stop-point law (issue 22) the identified model's final approach (p = 0.3 on the ARX(1,1)
+/// model's bias) rings by a quantum or two for a few samples in some seeks: measured over seeds
+/// 1–6: 4, 1, 6, 7, 10, 3 (31 of 600; seeds 7–12: 5, 2, 8, 5, 4, 3), against 0, 0, 2, 1, 2, 1
+/// with the earlier braking-curve law — a regression of this 30 ms-dwell setting taken for the
+/// family's p95 (8.0 → 3.5) and clean plants (89 → 92 %; `tests/seek_family.rs`). Asserted as a
+/// statistic over seeds: ≤ 36 of 600 and ≤ 12 per seed; hunting (a pulse in most seeks) trips it.
 #[test]
-#[ignore = "a measurement over seeds, run on demand"]
-fn time_optimal_spread_over_seeds() {
-    for seed in 1..=12 {
-        let (over, median, hold, unsettled) = time_optimal_run(seed);
+fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
+    let mut over = Vec::new();
+    for seed in 1..=6 {
+        let (run, n) = time_optimal_run(seed);
+        let s = &run.summary;
         println!(
-            "SPREAD seed {seed}: seeks with a pulse beyond their fine steps {over}, median {median:.2} ms, hold {hold:.2}, unsettled {unsettled}"
+            "seed {seed}: median {:.2} p90 {:.2} max {:.2} ms, pulses {}, unsettled {}, \
+             overshoot max {}, holding error {:.2}, seeks with a pulse beyond their fine steps {n}",
+            s.settling_ms.median,
+            s.settling_ms.p90,
+            s.settling_ms.max,
+            s.limit_cycle_pulses,
+            s.unsettled,
+            s.overshoot_quanta.max,
+            s.hold_true_error_quanta.max
         );
+        assert_eq!(s.seeks, 100);
+        assert_eq!(s.unsettled, 0, "seed {seed}");
+        assert!(
+            s.hold_true_error_quanta.max < 1.0,
+            "seed {seed}: {:?}",
+            s.hold_true_error_quanta
+        );
+        assert!(
+            s.settling_ms.median <= 30.5 / 3.0,
+            "seed {seed}: {:?}",
+            s.settling_ms
+        );
+        over.push(n);
     }
+    println!("seeks with a pulse beyond their fine steps, seeds 1–6: {over:?}");
+    assert!(over.iter().sum::<usize>() <= 36, "{over:?}");
+    assert!(over.iter().all(|&n| n <= 12), "{over:?}");
 }

@@ -1,43 +1,58 @@
 //! Seeks on the plant family (`sledid control-family --passes seek`,
 //! `sledid_host::control::seek::family`): two families of 200 plants (seeds 1 and 7), 100
-//! log-uniform seeks of 20–2,000 tracks each, every servo designed from the nominal prior only;
-//! each seek's access time over the minimum-time bound of its plant. Assertions are on the
-//! families' statistics.
+//! log-uniform seeks of 20–2,000 tracks each; each seek's access time over the minimum-time bound
+//! of its plant. Assertions are on the families' statistics.
 //!
-//! Issue 14's targets and what the controllers measure (`BENCHMARKS.md`, controller, seeks).
 //! "Seek mode" is the time-optimal seek ([`sledid::control::SeekMode::TimeOptimal`], switched
-//! on by `control::seek::seek_design`).
+//! on by `control::seek::seek_design`): each sample the drive whose predicted stop point is the
+//! target, on a model-based observer. Two settings (`BENCHMARKS.md`, controller, seeks):
 //!
-//! | measure | target | seek mode, seed 1 / 7 | reference-following, seed 1 / 7 |
+//! **Each plant's servo designed from its own exact model, identification frozen**
+//! (`--prior exact --frozen`: the law alone). Seeds 1 / 7 (2): access / bound median 1.00 / 1.00
+//! (1.00), p95 1.25 / 1.25 (1.25), ≥ 200 tracks 1.00; unsettled seeks 1 / 0 (1) — seed 1's on
+//! plant 197, the heaviest, almost frictionless sled, drifting a cell in its settle — pulses 0,
+//! safe stops 0. Asserted: median ≤ 1.05, p95 ≤ 1.5, ≤ 1 unsettled seek per family,
+//! no safe stop. (The earlier law, a braking curve followed by a velocity loop, left 46–93 of 100
+//! seeks unsettled on 8 of 10 fast sleds on their exact models.)
+//!
+//! **Every servo designed from the nominal prior, identification on-line** (the product until
+//! power-on calibration lands):
+//!
+//! | measure | target | seek mode, seed 1 / 7 (before this law) | reference-following, seed 1 / 7 |
 //! |---|---|---|---|
-//! | access / bound, median over all seeks | ≤ 1.5 | 1.43 / 1.38 | 6.10 / 5.70 |
-//! | access / bound, p95 | ≤ 2.5 | 8.0 / 9.7 | 26.0 / 20.7 |
-//! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.24 / 1.21 | 3.16 / 2.91 |
-//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 89.0 % / 81.5 % | 84.0 % / 86.5 % |
+//! | access / bound, median over all seeks | ≤ 1.5 | 1.25 / 1.20 (1.43 / 1.38) | 6.10 / 5.70 |
+//! | access / bound, p95 | ≤ 2.5 | 3.50 / 3.57 (8.0 / 9.7) | 26.0 / 20.7 |
+//! | access / bound, median over seeks ≥ 200 tracks | ≤ 1.3 | 1.13 / 1.12 (1.24 / 1.21) | 3.16 / 2.91 |
+//! | plants with 0 unsettled and 0 pulses | ≥ 99 % | 91.5 % / 93.5 % (89.0 % / 81.5 %) | 84.0 % / 86.5 % |
+//! | safe stops in seek mode | 0 | 3 / 2 | 0 / 0 |
 //! | nominal sled: median access, reference-following / seek mode | ≥ 3 | 27.3 / 5.0 ms = 5.45 | |
 //!
-//! The medians and the nominal speed-up meet the targets and are asserted at them; the p95 and
-//! the clean plants do not (issue 14's note: fast sleds several times the prior's gain ring
-//! after a time-optimal arrival; a few sleds held one cell off after their fine steps still
-//! flicker to two cells on sensor noise) and are asserted at today's level so that a regression
-//! trips.
+//! The medians and the nominal speed-up meet the targets and are asserted at them; the p95, the
+//! clean plants and the safe stops do not — the sleds 3–6× the prior's gain in quanta, on which
+//! the prior's model rings until the fallback count stops the loop (issue: power-on calibration)
+//! — and are asserted at today's level plus the seeds' spread, so that a regression trips.
 //!
 //! What trips each: a harness that times the reference-following servo from the reference's
 //! arrival instead of the command (its ratios fall towards the seek mode's), a bound that is too
-//! long or too short (every ratio moves), pulses or unsettled seeks left uncounted (clean goes to
-//! 100 %).
+//! long or too short (every ratio moves), pulses, unsettled seeks or stops left uncounted (clean
+//! goes to 100 %), a law that ignores the drive sample's own distance or follows w* through a
+//! velocity loop on the exact model (the exact-model family's unsettled seeks and p95).
 
 use sledid_host::control::family_eval::FamilyOptions;
 use sledid_host::control::seek::SeekOptions;
 use sledid_host::control::seek::family::{SeekFamilyReport, evaluate, stats_table};
 
 fn family(seed: u64) -> SeekFamilyReport {
-    let options = FamilyOptions {
+    family_of(FamilyOptions {
         plants: 200,
         seed,
         seeks: 100,
         ..FamilyOptions::default()
-    };
+    })
+}
+
+fn family_of(options: FamilyOptions) -> SeekFamilyReport {
+    let seed = options.seed;
     let report = evaluate(&options, &SeekOptions::default(), None).expect("the family runs");
     println!("family seed {seed}:\n{}", stats_table(&report));
     report
@@ -60,13 +75,40 @@ fn seeks_on_the_plant_family() {
         assert!(f.ratio.median >= 4.0, "seed {seed}: {f:?}");
         assert!(f.ratio_long_median >= 2.5, "seed {seed}: {f:?}");
         assert!(f.clean >= 0.80, "seed {seed}: {f:?}");
-        // The seek mode: issue 14's targets where met, today's level where not.
+        // The seek mode: the targets where met, today's level where not.
         assert!(s.ratio.median <= 1.5, "seed {seed}: {s:?}");
         assert!(s.ratio_long_median <= 1.3, "seed {seed}: {s:?}");
-        assert!(s.ratio.p95 <= 12.0, "seed {seed}: {s:?}");
-        assert!(s.clean >= 0.78, "seed {seed}: {s:?}");
+        // Measured 3.50 / 3.57 (seed 2: 3.00; 3.50–4.20 over the law's α, p settings tried).
+        assert!(s.ratio.p95 <= 4.5, "seed {seed}: {s:?}");
+        // Measured 91.5 / 93.5 % (seed 2: 94.0 %; 89.5–94.5 % over the settings tried).
+        assert!(s.clean >= 0.90, "seed {seed}: {s:?}");
+        assert!(s.safe_stops <= 4, "seed {seed}: {s:?}");
+        assert_eq!(f.safe_stops, 0, "seed {seed}: {f:?}");
         assert!(s.ratio.median * 3.0 <= f.ratio.median, "seed {seed}");
         assert!(r.nominal.speedup >= 3.0, "seed {seed}: {:?}", r.nominal);
         assert!((25.0..=31.0).contains(&r.nominal.reference.access_ms.median));
+    }
+}
+
+/// The seek law alone: every plant's servo designed from its own exact model, identification
+/// frozen (module doc).
+#[test]
+fn seeks_land_on_every_plant_with_its_exact_model() {
+    for seed in [1, 7] {
+        let r = family_of(FamilyOptions {
+            plants: 200,
+            seed,
+            seeks: 100,
+            exact_prior: true,
+            frozen: true,
+            ..FamilyOptions::default()
+        });
+        let s = &r.seek;
+        assert!(s.ratio.median <= 1.05, "seed {seed}: {s:?}");
+        assert!(s.ratio.p95 <= 1.5, "seed {seed}: {s:?}");
+        assert!(s.ratio_long_median <= 1.05, "seed {seed}: {s:?}");
+        assert!(s.unsettled <= 1, "seed {seed}: {s:?}");
+        assert_eq!(s.safe_stops, 0, "seed {seed}: {s:?}");
+        assert!(s.clean >= 0.995, "seed {seed}: {s:?}");
     }
 }

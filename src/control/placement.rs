@@ -101,7 +101,9 @@ impl Default for SupervisorDesign {
         Self {
             pole_min: 0.0,
             pole_max: 0.995,
-            gain_min: 1.0,
+            // The family's slowest sled (mass ×6, viscous ×25, force ×0.5, quantum ×2) has b = 0.76
+            // quanta per sample: 1.0 refused it as a prior.
+            gain_min: 0.25,
             gain_max: 1000.0,
             eps_limit_quanta: 8.0,
             untrusted_hold_samples: 256,

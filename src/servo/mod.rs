@@ -279,12 +279,14 @@ impl ServoDesign {
             .compensation
             .map_or(0.0, |m| -m.neuron().w().to_f64())
             .max(0.0);
-        // The sled coasts a/(1 − a) samples per unit of speed once the drive is cut; twice that,
-        // plus two samples, for a model that may be off.
+        // The sled coasts a/(1 − a) samples per unit of speed once the drive is cut; 1.25× that,
+        // plus two samples, for a model that may be off. (2× stopped heavy, lightly damped sleds
+        // of the family — a ≈ 0.97, a 2,000-track seek at 160 quanta per sample — on their exact
+        // model, 5,000 quanta short of the soft end stop: `control-family --prior exact`.)
         let coast_samples = controller
             .prior_model
             .map_or(SafetyDesign::default().coast_samples, |(a, _)| {
-                2.0 * a.clamp(0.0, 0.99) / (1.0 - a.clamp(0.0, 0.99)) + 2.0
+                1.25 * a.clamp(0.0, 0.99) / (1.0 - a.clamp(0.0, 0.99)) + 2.0
             });
         Self {
             velocity: velocity_identifier(
@@ -348,7 +350,7 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 247 (3 of framing, the
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 255 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings and
 /// safety layer, the controller with both maps and time-optimal seeks;
 /// `host-tests/tests/sled_loop.rs` counts them).

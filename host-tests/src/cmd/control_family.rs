@@ -24,10 +24,14 @@ pub struct Args {
     /// Seeks per plant and controller.
     #[arg(long, default_value_t = 100)]
     pub seeks: u32,
-    /// The plant every servo is designed from (JSON, its `plant` section). Default: the built-in
-    /// nominal sled.
+    /// The plant every servo is designed from (JSON, its `plant` section), or `exact`: each
+    /// plant's servo designed from that plant itself. Default: the built-in nominal sled.
     #[arg(long)]
     pub prior: Option<PathBuf>,
+    /// The seek pass's servos never adapt (identification frozen at the prior; with `--prior
+    /// exact`, the seek law alone on each plant's exact model).
+    #[arg(long)]
+    pub frozen: bool,
     /// Which evaluations: the settling comparison of four controllers (issue 13), the seek
     /// evaluation (issue 14: access time over the plant's minimum-time bound, seek mode and
     /// reference-following servo), or both.
@@ -58,7 +62,9 @@ pub enum Passes {
 /// # Errors
 /// Parameter, run, file or plot errors.
 pub fn run(a: &Args) -> Result<(), String> {
+    let exact_prior = a.prior.as_ref().is_some_and(|p| p.as_os_str() == "exact");
     let prior = match &a.prior {
+        Some(_) if exact_prior => TwinParams::default().plant,
         Some(p) => {
             TwinParams::from_json_file(p)
                 .map_err(|e| format!("{}: {e}", p.display()))?
@@ -71,6 +77,8 @@ pub fn run(a: &Args) -> Result<(), String> {
         seed: a.seed,
         seeks: a.seeks,
         prior,
+        exact_prior,
+        frozen: a.frozen,
         ..FamilyOptions::default()
     };
     let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;

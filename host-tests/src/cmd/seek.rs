@@ -23,6 +23,15 @@ pub enum SeekControllerArg {
     Reference,
 }
 
+/// `--identification`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum IdentificationArg {
+    /// The identifier adapts on-line (the product).
+    Online,
+    /// The identifier never adapts: the servo keeps its prior's design.
+    Frozen,
+}
+
 /// `sledid seek`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -30,8 +39,9 @@ pub struct Args {
     /// nominal sled.
     #[arg(long)]
     pub plant: Option<PathBuf>,
-    /// The plant the servo is designed from (JSON, its `plant` section). Default: the built-in
-    /// nominal sled — never the `--plant` file.
+    /// The plant the servo is designed from (JSON, its `plant` section), or `exact`: the `--plant`
+    /// itself, trusted as an identified model (the seek law on the exact model). Default: the
+    /// built-in nominal sled — never the `--plant` file.
     #[arg(long)]
     pub prior: Option<PathBuf>,
     /// Seeks.
@@ -50,6 +60,10 @@ pub struct Args {
     /// lengthened on a slow sled to 3× the bound of the longest seek + 10 ms.
     #[arg(long, default_value_t = 300.0)]
     pub dwell_ms: f64,
+    /// `frozen`: the servo's identifier never adapts (with `--prior` the plant's own file, the
+    /// seek law alone on the exact model).
+    #[arg(long, value_enum, default_value = "online")]
+    pub identification: IdentificationArg,
     /// Output directory: summary.json, seek_vs_distance.png, seek_steps.png.
     #[arg(long)]
     pub out: PathBuf,
@@ -101,7 +115,11 @@ pub fn run(a: &Args) -> Result<(), String> {
     let read =
         |p: &PathBuf| TwinParams::from_json_file(p).map_err(|e| format!("{}: {e}", p.display()));
     let params = a.plant.as_ref().map(read).transpose()?.unwrap_or_default();
-    let prior = a.prior.as_ref().map(read).transpose()?.unwrap_or_default();
+    let exact_prior = a.prior.as_ref().is_some_and(|p| p.as_os_str() == "exact");
+    let prior = match &a.prior {
+        Some(_) if exact_prior => params.clone(),
+        p => p.as_ref().map(read).transpose()?.unwrap_or_default(),
+    };
     let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;
     if a.seeks == 0 {
         return Err("--seeks 0: need at least one seek".to_owned());
@@ -115,9 +133,13 @@ pub fn run(a: &Args) -> Result<(), String> {
         max_tracks,
         seed: a.seed,
         dwell_s: a.dwell_ms * 1e-3,
+        frozen: a.identification == IdentificationArg::Frozen,
     };
     let design = design_from_prior(&params, &prior.plant)?;
     let under_test = match a.controller {
+        SeekControllerArg::Seek if exact_prior => {
+            SeekController::Seek(seek_design(design).with_trusted_prior())
+        }
         SeekControllerArg::Seek => SeekController::Seek(seek_design(design)),
         SeekControllerArg::Baseline => SeekController::Baseline,
         SeekControllerArg::Reference => SeekController::Reference(design),
@@ -182,9 +204,16 @@ pub fn run(a: &Args) -> Result<(), String> {
             s.unsettled
         )
     };
-    println!("{}", line(&tested.summary));
+    let stop = |s: &SeekSummary| match &s.safe_stop {
+        Some(st) => format!(
+            "; SAFE STOP ({}) at sample {}, seek {}, reading {} quanta",
+            st.reason, st.sample, st.seek, st.position_quanta
+        ),
+        None => String::new(),
+    };
+    println!("{}{}", line(&tested.summary), stop(&tested.summary));
     if let Some(r) = &reference {
-        println!("{}", line(&r.summary));
+        println!("{}{}", line(&r.summary), stop(&r.summary));
     }
     println!("→ {}", a.out.display());
     Ok(())

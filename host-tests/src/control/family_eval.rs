@@ -39,6 +39,11 @@ pub struct FamilyOptions {
     pub ranges: FamilyRanges,
     /// The plant every servo is designed from.
     pub prior: PlantParams,
+    /// Each plant's servo designed from that plant itself instead of `prior` (the seek pass:
+    /// isolates the seek law from the prior's error).
+    pub exact_prior: bool,
+    /// The seek pass's servos never adapt (identification frozen at the prior).
+    pub frozen: bool,
 }
 
 impl Default for FamilyOptions {
@@ -50,6 +55,8 @@ impl Default for FamilyOptions {
             run_seed: 1,
             ranges: FamilyRanges::default(),
             prior: PlantParams::default(),
+            exact_prior: false,
+            frozen: false,
         }
     }
 }
@@ -200,7 +207,12 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
     let factors = options.ranges.draw(options.seed, index);
     let params = factors.twin(&TwinParams::default());
     let at = |e: String| format!("plant {index} ({}): {e}", factors.label());
-    let design = design_from_prior(&params, &options.prior).map_err(at)?;
+    let prior = if options.exact_prior {
+        &params.plant
+    } else {
+        &options.prior
+    };
+    let design = design_from_prior(&params, prior).map_err(at)?;
     let mut linear = design;
     linear.identify_friction = false;
     let frozen = ServoOptions {
@@ -216,7 +228,6 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
             })
             .map_err(at)
     };
-    let prior = &options.prior;
     let plant = &params.plant;
     let friction = |p: &PlantParams| p.coulomb_n / p.force_per_volt_n_per_v;
     Ok(PlantResult {

@@ -141,13 +141,23 @@ impl ControlRun {
 }
 
 /// The servo's safety layer on the twin `params`: [`ServoDesign::new`]'s for `design`, with soft
-/// end stops half the twin's travel beyond the farthest target it commands (quanta of the plant).
+/// end stops half the twin's travel beyond the farthest target it commands (quanta of the plant)
+/// — farther where the prior's sled, cut off at its top speed b·u_max/(1 − a), would coast past
+/// them (T_coast · top speed + the margin beyond the travel): a sled of the family with a ≈ 0.98
+/// coasts 10,000 quanta from top speed, and the layer would otherwise stop it for arriving at top
+/// speed on a healthy seek.
 pub fn twin_safety(params: &TwinParams, design: &ScheduledDesign) -> SafetyDesign {
-    let travel = 1.5 * f64::from(params.reference.travel_tracks);
+    let safety = ServoDesign::new(*design).safety;
+    let half = 0.5 * f64::from(params.reference.travel_tracks);
+    let top_coast = design.prior_model.map_or(0.0, |(a, b)| {
+        let u_max = design.baseline.u_limit_v / design.baseline.u_full_scale_v;
+        safety.coast_samples * b * u_max / (1.0 - a.clamp(0.0, 0.99))
+    });
+    let travel = (3.0 * half).max(half + top_coast + safety.travel_margin_quanta);
     SafetyDesign {
         travel_min_quanta: -travel,
         travel_max_quanta: travel,
-        ..ServoDesign::new(*design).safety
+        ..safety
     }
 }
 

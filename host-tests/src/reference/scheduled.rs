@@ -13,7 +13,7 @@ use sledid::control::placement::PlacementDesign;
 use sledid::control::{ConfigError, ControlFlags, ControlOutput, Region, ScheduledDesign};
 
 use super::control::PidF64;
-use super::seek::SeekF64;
+use super::seek::{SeekF64, SeekObserverF64};
 use sledid::control::SeekMode;
 
 /// Gains in full scale per quantum (per sample for Ki), and the observer's.
@@ -155,6 +155,8 @@ pub struct ScheduledF64 {
     r1: f64,
     dr1_previous: f64,
     v_hat: f64,
+    /// The time-optimal seek's observer.
+    seek_observer: SeekObserverF64,
     integral: f64,
     last_v: f64,
     last_u: f64,
@@ -203,6 +205,7 @@ impl ScheduledF64 {
             r1: 0.0,
             dr1_previous: 0.0,
             v_hat: 0.0,
+            seek_observer: SeekObserverF64::default(),
             integral: 0.0,
             last_v: 0.0,
             last_u: 0.0,
@@ -261,6 +264,11 @@ impl ScheduledF64 {
         }
     }
 
+    /// The time-optimal seek's observer.
+    pub fn seek_observer(&self) -> SeekObserverF64 {
+        self.seek_observer
+    }
+
     /// The velocity estimate v̂, quanta per sample.
     pub fn velocity(&self) -> f64 {
         self.v_hat
@@ -286,6 +294,7 @@ impl ScheduledF64 {
         if !self.primed {
             self.primed = true;
             (self.y1, self.r1, self.dr1_previous) = (y, r, 0.0);
+            self.seek_observer = SeekObserverF64 { x: y, v: 0.0 };
         }
         let (dy1, dr1) = (y - self.y1, r - self.r1);
         let ar = dr1 - self.dr1_previous;
@@ -313,13 +322,14 @@ impl ScheduledF64 {
             obs_l: 0.0,
         });
         self.v_hat = g.obs_a * self.v_hat + g.obs_b * self.last_v + g.obs_l * dy1;
+        let time_optimal = matches!(d.seek, SeekMode::TimeOptimal(_));
+        if time_optimal {
+            self.seek_observer.update(plan.as_ref(), self.last_v, y);
+        }
         let previous = std::mem::replace(&mut self.mode, mode);
         let entering_settle = matches!(mode, LawMode::Fine | LawMode::Coast | LawMode::Settle);
-        if previous == LawMode::Seek
-            && entering_settle
-            && let Some(plan) = &plan
-        {
-            self.v_hat = plan.velocity(dy1, self.last_v);
+        if previous == LawMode::Seek && entering_settle && time_optimal {
+            self.v_hat = self.seek_observer.v;
         }
         let region = |m: LawMode| match m {
             LawMode::Hold => Some(Region::Hold),
@@ -349,11 +359,16 @@ impl ScheduledF64 {
                 self.last_v = self.forward(u);
                 return u;
             }
-            LawMode::Seek if plan.is_some() => (
-                plan.as_ref().map_or(0.0, |p| p.drive(e, dy1, self.last_v)),
-                false,
-                true,
-            ),
+            LawMode::Seek if time_optimal => {
+                self.integral = 0.0;
+                let (u, applied) = plan.as_ref().map_or((0.0, 0.0), |p| {
+                    let obs = self.seek_observer;
+                    p.compensate(p.drive(r - obs.x, obs.v), obs.v, u_max)
+                });
+                self.last_u = u;
+                self.last_v = applied;
+                return u;
+            }
             LawMode::Seek => (
                 g.kp_seek * e + g.kd_seek * (dr1 - self.v_hat) + g.kv_ff * dr1 + g.ka_ff * ar,
                 false,

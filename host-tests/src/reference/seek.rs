@@ -1,8 +1,9 @@
-//! The time-optimal seek law (`sledid::control::seek`) in f64: the same model reading (c₁, b₀, the
-//! velocity from the last increment), the same braking sequence tabulated at the same 33 speeds,
-//! its inverse interpolated the same way — in f64, so that the fixed point's rounding (gains, I16F16
-//! speeds, the integer interpolation) is what a comparison measures. [`SeekF64::exact_speed`] is
-//! the curve without the table, by bisection on D itself, for the table's own error.
+//! The time-optimal seek law (`sledid::control::seek`) in f64: the same sampled model (c₁, b₀),
+//! the same stop-point curve K(w) = D(w) + (b₀/b)·w tabulated at the same 33 speeds, its inverse
+//! interpolated the same way, the same observer and friction compensation — in f64, so that the
+//! fixed point's rounding (gains, I16F16 speeds and positions, the integer interpolation) is what
+//! a comparison measures. [`SeekF64::exact_speed`] is the curve without the table, by bisection on
+//! K itself, for the table's own error.
 
 /// One model's seek plan in f64.
 #[derive(Clone, Debug, PartialEq)]
@@ -14,7 +15,42 @@ pub struct SeekF64 {
     braking: f64,
     p: f64,
     w_step: f64,
-    d: Vec<f64>,
+    /// u_c, full scale.
+    u_c: f64,
+    /// Arrival speed, quanta per sample.
+    v_arrive: f64,
+    /// K at the table's speeds.
+    k: Vec<f64>,
+}
+
+/// The seek's observer (x̂, v̂) in f64, quanta and quanta per sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SeekObserverF64 {
+    /// x̂.
+    pub x: f64,
+    /// v̂.
+    pub v: f64,
+}
+
+impl SeekObserverF64 {
+    /// One sample: predict with `plan`'s model (none: no motion) and the applied linear drive,
+    /// correct by what the reading `y` lies outside the predicted cell.
+    pub fn update(&mut self, plan: Option<&SeekF64>, drive: f64, y: f64) {
+        if let Some(p) = plan {
+            self.x += p.c1 * self.v + p.b0 * drive;
+            self.v = p.a * self.v + p.b * drive;
+        } else {
+            self.v = 0.0;
+        }
+        let d = y - self.x;
+        if d.abs() > 0.5 {
+            let delta = d - 0.5 * d.signum();
+            self.x += delta;
+            if let Some(p) = plan {
+                self.v += p.correct() * delta;
+            }
+        }
+    }
 }
 
 /// (c₁, b₀) of the sampled first-order velocity: c₁ = τ(1 − a), b₀ = b·(1 − c₁)/(1 − a).
@@ -41,7 +77,7 @@ impl SeekF64 {
             return None;
         }
         let (c1, b0) = sampled_f64(a, b);
-        let fits = (2.0 * b * braking * 60_000.0).sqrt();
+        let fits = (2.0 * b * braking * 48_000.0).sqrt();
         let top = if a < 1.0 {
             b * u_max / (1.0 - a)
         } else {
@@ -50,6 +86,7 @@ impl SeekF64 {
         let w_top = top.min(16_384.0).min(fits);
         // The library's step, I16F16-rounded as it stores it.
         let w_step = (w_top / 32.0 * 65_536.0).floor() / 65_536.0;
+        let coast_per_speed = if a < 1.0 - 1e-4 { c1 / (1.0 - a) } else { 1.0 };
         let mut plan = Self {
             a,
             b,
@@ -58,10 +95,12 @@ impl SeekF64 {
             braking,
             p,
             w_step,
-            d: Vec::new(),
+            u_c: u_c.clamp(0.0, 0.5),
+            v_arrive: (1.0 / coast_per_speed.max(1.0 / 1024.0)).min(1.0),
+            k: Vec::new(),
         };
-        plan.d = (0..33)
-            .map(|j| plan.distance(f64::from(j) * w_step))
+        plan.k = (0..33)
+            .map(|j| plan.stop_distance(f64::from(j) * w_step))
             .collect();
         Some(plan)
     }
@@ -77,28 +116,34 @@ impl SeekF64 {
         d
     }
 
-    /// D⁻¹ by the table: the largest entry at or below `d`, then linear interpolation; the top
-    /// speed beyond.
-    pub fn speed(&self, d: f64) -> f64 {
-        let last = self.d.len() - 1;
-        if d >= self.d[last] {
-            return last as f64 * self.w_step;
-        }
-        let j = self.d.iter().rposition(|&dj| dj <= d).unwrap_or(0);
-        let span = (self.d[j + 1] - self.d[j]).max(1e-12);
-        (j as f64 + (d - self.d[j]) / span) * self.w_step
+    /// K(w) = D(w) + (b₀/b)·w: the stop point's part that depends on the velocity w after this
+    /// sample.
+    pub fn stop_distance(&self, w: f64) -> f64 {
+        self.distance(w) + self.b0 / self.b * w
     }
 
-    /// D⁻¹ exactly (bisection on D over [0, the top speed]).
+    /// K⁻¹ by the table: the largest entry at or below `d`, then linear interpolation; the top
+    /// speed beyond.
+    pub fn speed(&self, d: f64) -> f64 {
+        let last = self.k.len() - 1;
+        if d >= self.k[last] {
+            return last as f64 * self.w_step;
+        }
+        let j = self.k.iter().rposition(|&kj| kj <= d).unwrap_or(0);
+        let span = (self.k[j + 1] - self.k[j]).max(1e-12);
+        (j as f64 + (d - self.k[j]) / span) * self.w_step
+    }
+
+    /// K⁻¹ exactly (bisection on K over [0, the top speed]).
     pub fn exact_speed(&self, d: f64) -> f64 {
         let top = 32.0 * self.w_step;
-        if d >= self.distance(top) {
+        if d >= self.stop_distance(top) {
             return top;
         }
         let (mut lo, mut hi) = (0.0, top);
         for _ in 0..60 {
             let mid = 0.5 * (lo + hi);
-            if self.distance(mid) <= d {
+            if self.stop_distance(mid) <= d {
                 lo = mid;
             } else {
                 hi = mid;
@@ -107,21 +152,39 @@ impl SeekF64 {
         lo
     }
 
-    /// v̂ = (a/c₁)·Δy + (b − a·b₀/c₁)·u_e(k−1).
-    pub fn velocity(&self, dy: f64, v_last: f64) -> f64 {
+    /// l_v = ½·a/c₁ (0 for c₁ → 0).
+    pub fn correct(&self) -> f64 {
         if self.c1 > 1e-6 {
-            self.a / self.c1 * dy + (self.b - self.a * self.b0 / self.c1) * v_last
+            0.5 * self.a / self.c1
         } else {
-            self.b * v_last
+            0.0
         }
     }
 
-    /// The law's linear drive (full scale) for the error e, the last increment Δy and the last
-    /// linear drive.
-    pub fn drive(&self, e: f64, dy: f64, v_last: f64) -> f64 {
-        let v_hat = self.velocity(dy, v_last);
-        let left = e - self.c1 * v_hat;
-        let v_star = left.signum() * self.speed(left.abs());
-        ((1.0 - self.p) * v_star + (self.p - self.a) * v_hat) / self.b
+    /// The law's linear drive (full scale) for the observer's error e = target − x̂ and velocity
+    /// v̂.
+    pub fn drive(&self, e: f64, v_hat: f64) -> f64 {
+        let left = e - (self.c1 - self.a * self.b0 / self.b) * v_hat;
+        let w_star = left.signum() * self.speed(left.abs());
+        ((1.0 - self.p) * w_star + (self.p - self.a) * v_hat) / self.b
+    }
+
+    /// |v̂| ≤ the arrival speed.
+    pub fn at_rest(&self, v_hat: f64) -> bool {
+        v_hat.abs() <= self.v_arrive
+    }
+
+    /// (u, the linear drive after the rail): u = clamp(v + u_c·sgn(v̂, or v at rest), ±u_max).
+    pub fn compensate(&self, v: f64, v_hat: f64, u_max: f64) -> (f64, f64) {
+        let direction = if self.at_rest(v_hat) { v } else { v_hat };
+        let friction = if direction > 0.0 {
+            self.u_c
+        } else if direction < 0.0 {
+            -self.u_c
+        } else {
+            0.0
+        };
+        let u = (v + friction).clamp(-u_max, u_max);
+        (u, u - friction)
     }
 }

@@ -8,7 +8,9 @@
 //! ```text
 //! e = r − y,  d_y = y(k) − y(k−2),  d_r = r(k) − r(k−2),  v_r = r(k) − r(k−1),  Δv_r = v_r(k) − v_r(k−1)
 //! Seek:    v = Kp_s·e + Kd_s/2·(d_r − d_y) + (1 − a)/b·v_r + Δv_r/b + I,   I ← I − I/2⁴ (fades)
-//!          (time-optimal seeks, [`super::seek`]: v = ((1 − p)·sgn(e)·G⁻¹(|e|) + (p − a)·v̂)/b, r the target)
+//!          (time-optimal seeks, [`super::seek`]: on the seek observer's (x̂, v̂), e″ = r − x̂ − (c₁ − a·b₀/b)·v̂,
+//!           v = ((1 − p)·sgn(e″)·K⁻¹(|e″|) + (p − a)·v̂)/b, u = v + u_c·sgn(v̂): the drive whose stop
+//!           point is the target r; Settle only once at rest on the target cell)
 //! Settle:  v = Kp_z·e − Kd_z/2·d_y + I,   I ← clamp(I + Ki_z·e, ±I_max)   (conditional integration)
 //! Hold:    u = u_hold,  I frozen                                           (dead band: no limit cycle)
 //! u = clamp(h⁻¹(v), ±u_max)                                                (compensation optional)
@@ -59,7 +61,7 @@ use super::compensation::InverseInputMap;
 use super::integrator::integrate;
 use super::pid::{PidConfig, PidDesign, PidState};
 use super::placement::{ModelGains, PlacementDesign, Rejection, SupervisorDesign, VelocityModel};
-use super::seek::{SeekPlan, TimeOptimalDesign};
+use super::seek::{SeekObserver, SeekPlan, TimeOptimalDesign};
 use super::{ConfigError, ControlFlags, ControlInput, ControlOutput, Controller, PidFlags};
 use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
@@ -177,6 +179,16 @@ impl ScheduledDesign {
         let (seek, regions) = SeekMode::time_optimal();
         self.seek = seek;
         self.regions = regions;
+        self
+    }
+
+    /// The prior is the sled's own model (measured, or a calibration's): its seek plan brakes
+    /// and follows at [`TimeOptimalDesign::TRUSTED`] instead of the prior's cautious settings.
+    /// No change without time-optimal seeks.
+    pub fn with_trusted_prior(mut self) -> Self {
+        if let SeekMode::TimeOptimal(t) = &mut self.seek {
+            (t.alpha_prior, t.velocity_pole_prior) = TimeOptimalDesign::TRUSTED;
+        }
         self
     }
 
@@ -320,6 +332,11 @@ pub struct ScheduledState {
     hold_error: i32,
     /// The velocity observer.
     observer: VelocityObserver,
+    /// The time-optimal seek's observer of position and velocity (runs every sample when seeks
+    /// are time-optimal).
+    seek_observer: SeekObserver,
+    /// Samples a time-optimal seek has spent in the settle band without arriving.
+    arrival_wait: u16,
     /// Rest, cell and band bookkeeping near the target.
     near: NearTarget,
     /// The gains in use: the prior's, then each adopted redesign's.
@@ -356,11 +373,18 @@ impl ScheduledState {
             redesign_pending: false,
             hold_error: 0,
             observer: VelocityObserver::new(),
+            seek_observer: SeekObserver::new(),
+            arrival_wait: 0,
             near: NearTarget::new(),
             gains,
             compensation,
             fallback,
         }
+    }
+
+    /// The time-optimal seek's observer.
+    pub fn seek_observer(&self) -> &SeekObserver {
+        &self.seek_observer
     }
 
     /// The region of the last step.
@@ -404,6 +428,10 @@ impl ScheduledState {
         self.fallback
     }
 }
+
+/// A time-optimal seek in the settle band hands over to Settle after this many samples even if
+/// it has not arrived (a sled friction holds short of the target cell).
+pub const ARRIVAL_WAIT_SAMPLES: u16 = 16;
 
 /// Trusted identifier updates since the last redesign after which a settling controller asks for
 /// another.
@@ -608,6 +636,7 @@ impl ScheduledConfig {
             state.primed = true;
             (state.y1, state.r1) = (y_lin, r.raw());
             state.dr1_previous = 0;
+            state.seek_observer.restart(y_lin);
             flags.insert(ControlFlags::FIRST_SAMPLE);
         }
         let dy1 = sat_i32(y_lin.saturating_sub(state.y1), &mut sat);
@@ -625,6 +654,16 @@ impl ScheduledConfig {
         // The model's input over the last sample: the linear drive, after friction compensation.
         let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
         let mut v_hat = state.observer.update(g, v_prev, dy1, &mut sat);
+        let time_optimal = self.seek.is_some();
+        if time_optimal {
+            state.seek_observer.update(&g.seek, v_prev, y_lin, &mut sat);
+        }
+        // The seek's error and velocity on the observer (time-optimal seeks only).
+        let e_seek = sat_i32(
+            r.raw().saturating_sub(state.seek_observer.position()),
+            &mut sat,
+        );
+        let v_seek = state.seek_observer.velocity();
         let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
         let ar = dr1.saturating_sub(state.dr1_previous);
         (state.y1, state.r1) = (y_lin, r.raw());
@@ -640,18 +679,35 @@ impl ScheduledConfig {
             self.seek.is_some(),
         );
         let previous = state.region;
-        let region =
+        let mut region =
             self.selector
                 .select(previous, e, dr1, verdict.holdable, &mut state.hold_error);
+        if time_optimal && previous == Region::Seek && region == Region::Settle {
+            // A time-optimal seek hands over at rest in the settle band, not at speed through it —
+            // at rest by the model and by the readings (the observer of a model that is off can
+            // think a sled still coasting stopped); a sled friction holds short is handed over
+            // after ARRIVAL_WAIT_SAMPLES in the band.
+            state.arrival_wait = state.arrival_wait.saturating_add(1);
+            // In the settle band, the observer at rest and the reading still.
+            let arrived = e.unsigned_abs() <= self.selector.settle_band_raw()
+                && g.seek.at_rest(v_seek)
+                && dy1 == 0;
+            if !arrived && state.arrival_wait < ARRIVAL_WAIT_SAMPLES {
+                region = Region::Seek;
+            }
+        }
+        if region != Region::Seek || previous != Region::Seek {
+            state.arrival_wait = 0;
+        }
         state.region = region;
         let changed = region != previous;
         if changed {
             state.near.enter(e, region == Region::Seek);
         }
-        if changed && previous == Region::Seek && self.seek.is_some() {
-            // Out of a time-optimal seek: the observer lags the braking; its estimate restarts at
-            // the seek's own (from the last increment and drive).
-            v_hat = g.seek.velocity(dy1, v_prev);
+        if changed && previous == Region::Seek && time_optimal {
+            // Out of a time-optimal seek: the velocity observer lags the braking; its estimate
+            // restarts at the seek observer's.
+            v_hat = v_seek;
             state.observer.restart(v_hat);
         }
         flags.set_if(ControlFlags::REGION_CHANGED, changed);
@@ -713,8 +769,26 @@ impl ScheduledConfig {
                     flags,
                 };
             }
-            // Time-optimal: full drive, then the braking curve to the target (r).
-            Region::Seek if self.seek.is_some() => (g.seek.drive(e_lin, dy1, v_prev), false, true),
+            // Time-optimal: the drive whose stop point is the target (r), friction compensated
+            // against the motion.
+            Region::Seek if time_optimal => {
+                state.integral_i32f32 = 0;
+                let v = sat_i32(shr_round_i64(g.seek.drive(e_seek, v_seek), 16), &mut sat);
+                let u_max = (self.u_limit_i32f32 >> 16) as i32;
+                let (u, applied) = g.seek.compensate(v, v_seek, u_max);
+                flags.set_if(
+                    ControlFlags::OUTPUT_SATURATED,
+                    u.unsigned_abs() == u_max.unsigned_abs() && u != v,
+                );
+                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
+                state.last_u = u;
+                state.last_v_i32f32 = i64::from(applied) << 16;
+                return ControlOutput {
+                    u: SignalI16F16::from_raw(u),
+                    region,
+                    flags,
+                };
+            }
             // Each term < 2^62 in magnitude; four of them are summed saturating.
             Region::Seek => (
                 g.kp_seek
@@ -798,7 +872,11 @@ impl ScheduledConfig {
         let u = clamp_sym_i32(u_raw, u_max);
         flags.set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
         flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-        // The linear drive the sled sees: v, or h(u) where the map was not applied.
+        // The linear drive the sled sees: v, or h(u) where the map was not applied. (Where the
+        // rail clips u the sled sees h(u), not v: the velocity observer is fed v there, and
+        // feeding it h(u) moved the reference-following family's holding error from 1.49 to
+        // 1.67 quanta, `tests/control_family.rs`; the time-optimal seek feeds its own observer
+        // what the rail let through.)
         state.last_v_i32f32 = if compensate {
             v
         } else {

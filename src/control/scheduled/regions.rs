@@ -164,6 +164,11 @@ impl RegionSelector {
         self.hold_enter.min(i32::MAX as u32) as i32
     }
 
+    /// S_enter, I16F16 raw quanta: the band a seek hands over to Settle in.
+    pub fn settle_band_raw(&self) -> u32 {
+        self.settle_enter
+    }
+
     /// The region for this sample from the previous one, the error e = r − y and the reference
     /// increment r(k) − r(k−1) (I16F16 raw, quanta), whether the sled may be held now
     /// ([`super::rest`]), and Hold's low-passed error `hold_error` (I16F16 raw quanta; updated

@@ -37,6 +37,8 @@ pub struct SeekBrief {
     pub unsettled: usize,
     /// Limit-cycle pulses.
     pub limit_cycle_pulses: usize,
+    /// The safety layer's stop, if it latched one.
+    pub safe_stop: Option<super::run::SafeStop>,
     /// Per seek: distance (tracks) and access / bound (not in the JSON).
     #[serde(skip)]
     pub ratios: Vec<(i64, f64)>,
@@ -51,6 +53,7 @@ impl SeekBrief {
             ratio_long_median: summary.ratio_long_median,
             unsettled: summary.unsettled,
             limit_cycle_pulses: summary.limit_cycle_pulses,
+            safe_stop: summary.safe_stop,
             ratios: rows
                 .iter()
                 .filter_map(|r| r.ratio.map(|q| (r.distance_tracks, q)))
@@ -92,6 +95,8 @@ pub struct SeekFamilyStats {
     pub unsettled: usize,
     /// Limit-cycle pulses, all plants.
     pub limit_cycle_pulses: usize,
+    /// Plants whose safety layer latched a stop.
+    pub safe_stops: usize,
 }
 
 impl SeekFamilyStats {
@@ -113,7 +118,8 @@ impl SeekFamilyStats {
             ratio_long_median: Quantiles::of(&long).median,
             clean: briefs.clone().filter(|b| b.clean()).count() as f64 / n.max(1) as f64,
             unsettled: briefs.clone().map(|b| b.unsettled).sum(),
-            limit_cycle_pulses: briefs.map(|b| b.limit_cycle_pulses).sum(),
+            limit_cycle_pulses: briefs.clone().map(|b| b.limit_cycle_pulses).sum(),
+            safe_stops: briefs.filter(|b| b.safe_stop.is_some()).count(),
         }
     }
 }
@@ -151,9 +157,19 @@ fn controllers(
     params: &TwinParams,
     family: &FamilyOptions,
 ) -> Result<(SeekController, SeekController), String> {
-    let design = design_from_prior(params, &family.prior)?;
+    let prior = if family.exact_prior {
+        &params.plant
+    } else {
+        &family.prior
+    };
+    let design = design_from_prior(params, prior)?;
+    let seek = if family.exact_prior {
+        seek_design(design).with_trusted_prior()
+    } else {
+        seek_design(design)
+    };
     Ok((
-        SeekController::Seek(seek_design(design)),
+        SeekController::Seek(seek),
         SeekController::Reference(design),
     ))
 }
@@ -164,6 +180,7 @@ fn family_schedule(family: &FamilyOptions, schedule: &SeekOptions) -> SeekOption
     SeekOptions {
         seeks: family.seeks,
         seed: family.run_seed,
+        frozen: family.frozen,
         ..*schedule
     }
 }
@@ -253,18 +270,19 @@ pub fn evaluate(
 pub fn stats_table(r: &SeekFamilyReport) -> String {
     let row = |name: &str, s: &SeekFamilyStats, n: &SeekSummary| {
         format!(
-            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} | {} | {:.1} |\n",
+            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} | {} | {} | {:.1} |\n",
             s.ratio.median,
             s.ratio.p95,
             s.ratio_long_median,
             100.0 * s.clean,
             s.unsettled,
             s.limit_cycle_pulses,
+            s.safe_stops,
             n.access_ms.median
         )
     };
     format!(
-        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
+        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
         row("seek mode (time-optimal seeks)", &r.seek, &r.nominal.seek),
         row(
             "reference-following (30 ms S-curve)",
@@ -278,17 +296,21 @@ pub fn stats_table(r: &SeekFamilyReport) -> String {
 /// The per-plant Markdown table.
 pub fn plant_table(r: &SeekFamilyReport) -> String {
     let mut t = String::from(
-        "| plant | factors | longest bound (ms) | seek: access median (ms), ratio median / p95 / ≥ 200, unsettled/pulses | reference-following: the same |\n|---|---|---|---|---|\n",
+        "| plant | factors | longest bound (ms) | seek: access median (ms), ratio median / p95 / ≥ 200, unsettled/pulses, safe stop | reference-following: the same |\n|---|---|---|---|---|\n",
     );
     let cell = |b: &SeekBrief| {
         format!(
-            "{:.1}, {:.2} / {:.2} / {:.2}, {}/{}",
+            "{:.1}, {:.2} / {:.2} / {:.2}, {}/{}{}",
             b.access_median_ms,
             b.ratio_median,
             b.ratio_p95,
             b.ratio_long_median,
             b.unsettled,
-            b.limit_cycle_pulses
+            b.limit_cycle_pulses,
+            b.safe_stop.map_or(String::new(), |st| format!(
+                ", stop: {} in seek {}",
+                st.reason, st.seek
+            ))
         )
     };
     for p in &r.plants {

@@ -25,6 +25,6 @@ pub mod run;
 
 pub use access::{MIN_DWELL_S, Quantiles, access_samples};
 pub use run::{
-    LONG_SEEK_TRACKS, SeekController, SeekOptions, SeekRow, SeekRun, SeekSummary, bound_curve,
-    rows_of, run_seeks, seek_design,
+    LONG_SEEK_TRACKS, SafeStop, SeekController, SeekOptions, SeekRow, SeekRun, SeekSummary,
+    bound_curve, rows_of, run_seeks, seek_design,
 };

@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 use sledid::control::ScheduledDesign;
-use sledid::servo::ServoOptions;
+use sledid::servo::{Identification, ServoOptions, StopReason};
 
 use super::access::{Quantiles, access_samples, min_dwell_samples};
 use crate::control::run::{ControlRun, run_with_options};
@@ -80,6 +80,9 @@ pub struct SeekOptions {
     /// Shortest dwell after the command (step) or after the S-curve's arrival, s; lengthened
     /// to [`DWELL_BOUND_FACTOR`] × the bound of the longest seek + 10 ms on slow sleds.
     pub dwell_s: f64,
+    /// The servo's identifier never adapts (`Identification::FrozenAtPrior`): with the plant's
+    /// exact model as the prior, this isolates the seek law from what identification does.
+    pub frozen: bool,
 }
 
 impl Default for SeekOptions {
@@ -90,6 +93,7 @@ impl Default for SeekOptions {
             max_tracks: 2000,
             seed: 1,
             dwell_s: 0.3,
+            frozen: false,
         }
     }
 }
@@ -194,6 +198,46 @@ pub struct SeekSummary {
     pub without_bound: usize,
     /// The dwell the run used, s.
     pub dwell_s: f64,
+    /// The safety layer's stop, if it latched one: where and why.
+    pub safe_stop: Option<SafeStop>,
+}
+
+/// A latched safe stop of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SafeStop {
+    /// `StopReason`'s name.
+    pub reason: &'static str,
+    /// The sample it latched at.
+    pub sample: usize,
+    /// The seek it latched in (index in the schedule).
+    pub seek: usize,
+    /// The reading there, quanta.
+    pub position_quanta: i64,
+}
+
+impl SafeStop {
+    /// The stop of `run`, if any.
+    pub fn of(run: &ControlRun) -> Option<Self> {
+        let (sample, reason) = run.first_stop?;
+        let seek = run
+            .twin
+            .seeks()
+            .iter()
+            .rposition(|s| s.start_index <= sample)
+            .unwrap_or(0);
+        Some(Self {
+            reason: match reason {
+                StopReason::Runaway => "runaway",
+                StopReason::Travel => "travel",
+                StopReason::SensorLost => "sensor_lost",
+                StopReason::Stall => "stall",
+                StopReason::Fallbacks => "fallbacks",
+            },
+            sample,
+            seek,
+            position_quanta: run.twin.samples().get(sample).map_or(0, |s| s.y_counts),
+        })
+    }
 }
 
 impl SeekSummary {
@@ -217,6 +261,7 @@ impl SeekSummary {
             unsettled: rows.iter().filter(|r| !r.settled).count(),
             without_bound: rows.iter().filter(|r| r.bound_ms.is_none()).count(),
             dwell_s,
+            safe_stop: None,
         }
     }
 }
@@ -249,10 +294,20 @@ pub fn run_seeks(
         options.seed,
         options.seeks,
         controller.design(),
-        ServoOptions::default(),
+        ServoOptions {
+            identification: if options.frozen {
+                Identification::FrozenAtPrior
+            } else {
+                Identification::OnLine
+            },
+            ..ServoOptions::default()
+        },
     )?;
     let rows = rows(&run);
-    let summary = SeekSummary::of(controller.label(), &rows, params.reference.dwell_s);
+    let summary = SeekSummary {
+        safe_stop: SafeStop::of(&run),
+        ..SeekSummary::of(controller.label(), &rows, params.reference.dwell_s)
+    };
     Ok(SeekRun {
         controller: *controller,
         run,
