@@ -723,17 +723,19 @@ fn time_optimal_run(seed: u64) -> (sledid_host::control::run::ControlRun, usize)
 /// drive (saturation), all ending at rest in the target's band. Asserted on seeds 1–6: every seek
 /// settles, the true holding error under one quantum, and a median settling time at most a third
 /// of the reference-following servo's 30.5 ms (issue 14: ≥ 3× shorter). Measured (seeds 1–6)
-/// medians 10.01, 8.64, 9.55, 9.55, 10.01, 10.01 ms, holding error ≤ 0.52.
+/// medians 9.78, 8.19, 9.78, 9.33, 10.01, 10.01 ms, holding error ≤ 0.51.
 ///
 /// Pulses: a fine step (a sled at rest one cell off stepping toward the target) is one drive
 /// pulse late in the dwell and not a limit cycle; a seek whose pulses exceed its fine steps
 /// started (at most `FINE_STEPS_MAX`) made a corrective pulse of another kind. With the
 /// stop-point law (issue 22) the identified model's final approach (p = 0.3 on the ARX(1,1)
 /// model's bias) rings by a quantum or two for a few samples in some seeks: measured over seeds
-/// 1–6: 4, 1, 6, 7, 10, 3 (31 of 600; seeds 7–12: 5, 2, 8, 5, 4, 3), against 0, 0, 2, 1, 2, 1
-/// with the earlier braking-curve law — a regression of this 30 ms-dwell setting taken for the
-/// family's p95 (8.0 → 3.5) and clean plants (89 → 92 %; `tests/seek_family.rs`). Asserted as a
-/// statistic over seeds: ≤ 36 of 600 and ≤ 12 per seed; hunting (a pulse in most seeks) trips it.
+/// 1–6 with the one-pass RLS kernel 5, 0, 7, 2, 12, 6 (32 of 600; seeds 7–12: 3, 6, 10, 9, 4, 11
+/// = 43), with the previous kernel 4, 1, 6, 7, 10, 3 (31; seeds 7–12: 27), against 0, 0, 2, 1,
+/// 2, 1 with the earlier braking-curve law — a regression of this 30 ms-dwell setting taken for
+/// the family's p95 (8.0 → 3.5) and clean plants (`tests/seek_family.rs`). Asserted as a
+/// statistic over seeds 1–6 with the blocks' spread: ≤ 48 of 600 and ≤ 15 per seed; hunting (a
+/// pulse in most seeks) trips it.
 #[test]
 fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
     let mut over = Vec::new();
@@ -766,6 +768,6 @@ fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
         over.push(n);
     }
     println!("seeks with a pulse beyond their fine steps, seeds 1–6: {over:?}");
-    assert!(over.iter().sum::<usize>() <= 36, "{over:?}");
-    assert!(over.iter().all(|&n| n <= 12), "{over:?}");
+    assert!(over.iter().sum::<usize>() <= 48, "{over:?}");
+    assert!(over.iter().all(|&n| n <= 15), "{over:?}");
 }
