@@ -111,19 +111,7 @@ fn holding_error_spread_over_seeds() {
         .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
         .unwrap_or_else(|| (1..=8).collect());
     for seed in seeds {
-        let options = FamilyOptions {
-            plants: 200,
-            seed,
-            seeks: 100,
-            ..FamilyOptions::default()
-        };
-        let report = evaluate(&options, None).expect("the family runs");
-        let off = report
-            .plants
-            .iter()
-            .filter(|p| p.identified.hold_true_error_max_quanta >= 1.5)
-            .count();
-        let s = &report.stats;
+        let (s, off) = family(seed);
         println!(
             "SPREAD seed {seed}: hold true max {:.3}, plants ≥ 1.5 off {off}, clean {:.3} (frozen {:.3}), ratio≤0.7 {:.3}, worse {} , gain20 {:.3}, hf ratio {:.3}, stops {}/{}",
             s.hold_true_error_max_quanta,

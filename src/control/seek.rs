@@ -398,17 +398,7 @@ impl SeekPlan {
     /// # Errors
     /// [`ConfigError::SeekDesign`] otherwise.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let gains = [
-            self.k_a,
-            self.k_b,
-            self.k_c1,
-            self.k_b0,
-            self.k_correct,
-            self.k_coast,
-            self.k_target,
-            self.k_velocity,
-        ];
-        if !gains.iter().all(|k| k.is_valid()) {
+        if !self.gains().iter().all(|k| k.is_valid()) {
             return Err(ConfigError::SeekDesign(f64::NAN));
         }
         if !(0..=1 << 16).contains(&self.v_arrive) {
@@ -432,6 +422,20 @@ impl SeekPlan {
         self.k_target
             .apply(w_star)
             .saturating_add(self.k_velocity.apply(v_hat))
+    }
+
+    /// The eight gains in their word order (the order [`Words::take`] reads them back in).
+    fn gains(&self) -> [Gain; 8] {
+        [
+            self.k_a,
+            self.k_b,
+            self.k_c1,
+            self.k_b0,
+            self.k_correct,
+            self.k_coast,
+            self.k_target,
+            self.k_velocity,
+        ]
     }
 
     /// The observer has the sled at rest: |v̂| ≤ v_arrive.
@@ -548,17 +552,7 @@ pub fn sampled(a: f32, b: f32) -> (f32, f32) {
 /// Words: the eight gains, v_arrive, u_c, then the curve.
 impl Words for SeekPlan {
     fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
-        [
-            self.k_a,
-            self.k_b,
-            self.k_c1,
-            self.k_b0,
-            self.k_correct,
-            self.k_coast,
-            self.k_target,
-            self.k_velocity,
-        ]
-        .put(w)?;
+        self.gains().put(w)?;
         [self.v_arrive, self.u_coulomb].put(w)?;
         self.curve.put(w)
     }

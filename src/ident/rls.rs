@@ -533,14 +533,21 @@ impl Pos {
                 1u32 << (-self.e) as u32
             };
             let (s, carry) = self.m.overflowing_add(one);
-            if carry {
-                Self {
-                    m: (s >> 1) | (1 << 31),
-                    e: self.e + 1,
-                }
-            } else {
-                Self { m: s, e: self.e }
+            Self::carried(s, carry, self.e)
+        }
+    }
+
+    /// A 32-bit sum at exponent `e` with its carry out, renormalised (the carry becomes the top
+    /// bit, the lowest bit is dropped).
+    #[inline(always)]
+    fn carried(sum: u32, carry: bool, e: i32) -> Self {
+        if carry {
+            Self {
+                m: (sum >> 1) | (1 << 31),
+                e: e + 1,
             }
+        } else {
+            Self { m: sum, e }
         }
     }
 
@@ -588,14 +595,7 @@ impl Pos {
         };
         let lo_m = lo.m.checked_shr(hi.e.abs_diff(lo.e)).unwrap_or(0);
         let (sum, carry) = hi.m.overflowing_add(lo_m);
-        if carry {
-            Self {
-                m: (sum >> 1) | (1 << 31),
-                e: hi.e + 1,
-            }
-        } else {
-            Self { m: sum, e: hi.e }
-        }
+        Self::carried(sum, carry, hi.e)
     }
 
     /// As a dyadic (exponent limits applied).

@@ -68,6 +68,17 @@ impl StopReason {
             Self::Fallbacks => 5,
         }
     }
+
+    /// The name, for reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Runaway => "runaway",
+            Self::Travel => "travel",
+            Self::SensorLost => "sensor_lost",
+            Self::Stall => "stall",
+            Self::Fallbacks => "fallbacks",
+        }
+    }
 }
 
 /// Most fallback entries the window remembers.

@@ -62,7 +62,7 @@ pub enum Passes {
 /// # Errors
 /// Parameter, run, file or plot errors.
 pub fn run(a: &Args) -> Result<(), String> {
-    let exact_prior = a.prior.as_ref().is_some_and(|p| p.as_os_str() == "exact");
+    let exact_prior = super::is_exact_prior(a.prior.as_ref());
     let prior = match &a.prior {
         Some(_) if exact_prior => TwinParams::default().plant,
         Some(p) => {

@@ -9,3 +9,8 @@ pub mod seek;
 pub mod soak;
 pub mod study;
 pub mod twin;
+
+/// `--prior exact`: each plant's servo designed from that plant itself (`seek`, `control-family`).
+fn is_exact_prior(prior: Option<&std::path::PathBuf>) -> bool {
+    prior.is_some_and(|p| p.as_os_str() == "exact")
+}

@@ -115,7 +115,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let read =
         |p: &PathBuf| TwinParams::from_json_file(p).map_err(|e| format!("{}: {e}", p.display()));
     let params = a.plant.as_ref().map(read).transpose()?.unwrap_or_default();
-    let exact_prior = a.prior.as_ref().is_some_and(|p| p.as_os_str() == "exact");
+    let exact_prior = super::is_exact_prior(a.prior.as_ref());
     let prior = match &a.prior {
         Some(_) if exact_prior => params.clone(),
         p => p.as_ref().map(read).transpose()?.unwrap_or_default(),

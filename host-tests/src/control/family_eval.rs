@@ -46,6 +46,14 @@ pub struct FamilyOptions {
     pub frozen: bool,
 }
 
+impl FamilyOptions {
+    /// The plant a servo on `plant` is designed from: `plant` itself with `exact_prior`, else
+    /// `prior`.
+    pub fn prior_for<'a>(&'a self, plant: &'a PlantParams) -> &'a PlantParams {
+        if self.exact_prior { plant } else { &self.prior }
+    }
+}
+
 impl Default for FamilyOptions {
     fn default() -> Self {
         Self {
@@ -207,12 +215,7 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
     let factors = options.ranges.draw(options.seed, index);
     let params = factors.twin(&TwinParams::default());
     let at = |e: String| format!("plant {index} ({}): {e}", factors.label());
-    let prior = if options.exact_prior {
-        &params.plant
-    } else {
-        &options.prior
-    };
-    let design = design_from_prior(&params, prior).map_err(at)?;
+    let design = design_from_prior(&params, options.prior_for(&params.plant)).map_err(at)?;
     let mut linear = design;
     linear.identify_friction = false;
     let frozen = ServoOptions {
@@ -234,7 +237,7 @@ pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult
         index,
         factors,
         prior_error: factors.prior_error(physical_model),
-        friction_ratio: friction(plant) / friction(prior),
+        friction_ratio: friction(plant) / friction(options.prior_for(plant)),
         baseline: run(None, ServoOptions::default())?,
         identified: run(Some(&design), ServoOptions::default())?,
         frozen: run(Some(&design), frozen)?,

@@ -10,7 +10,7 @@
 //! Seek:    v = Kp_s·e + Kd_s/2·(d_r − d_y) + (1 − a)/b·v_r + Δv_r/b + I,   I ← I − I/2⁴ (fades)
 //!          (time-optimal seeks, [`super::seek`]: on the seek observer's (x̂, v̂), e″ = r − x̂ − (c₁ − a·b₀/b)·v̂,
 //!           v = ((1 − p)·sgn(e″)·K⁻¹(|e″|) + (p − a)·v̂)/b, u = v + u_c·sgn(v̂): the drive whose stop
-//!           point is the target r; Settle only once at rest on the target cell)
+//!           point is the target r; Settle only once at rest in the settle band)
 //! Settle:  v = Kp_z·e − Kd_z/2·d_y + I,   I ← clamp(I + Ki_z·e, ±I_max)   (conditional integration)
 //! Hold:    u = u_hold,  I frozen                                           (dead band: no limit cycle)
 //! u = clamp(h⁻¹(v), ±u_max)                                                (compensation optional)
@@ -655,15 +655,17 @@ impl ScheduledConfig {
         let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
         let mut v_hat = state.observer.update(g, v_prev, dy1, &mut sat);
         let time_optimal = self.seek.is_some();
-        if time_optimal {
+        // The seek's error and velocity on its observer (time-optimal seeks only).
+        let (e_seek, v_seek) = if time_optimal {
             state.seek_observer.update(&g.seek, v_prev, y_lin, &mut sat);
-        }
-        // The seek's error and velocity on the observer (time-optimal seeks only).
-        let e_seek = sat_i32(
-            r.raw().saturating_sub(state.seek_observer.position()),
-            &mut sat,
-        );
-        let v_seek = state.seek_observer.velocity();
+            let x_hat = state.seek_observer.position();
+            (
+                sat_i32(r.raw().saturating_sub(x_hat), &mut sat),
+                state.seek_observer.velocity(),
+            )
+        } else {
+            (0, 0)
+        };
         let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
         let ar = dr1.saturating_sub(state.dr1_previous);
         (state.y1, state.r1) = (y_lin, r.raw());
@@ -684,11 +686,10 @@ impl ScheduledConfig {
                 .select(previous, e, dr1, verdict.holdable, &mut state.hold_error);
         if time_optimal && previous == Region::Seek && region == Region::Settle {
             // A time-optimal seek hands over at rest in the settle band, not at speed through it —
-            // at rest by the model and by the readings (the observer of a model that is off can
+            // at rest by the model and by the reading (the observer of a model that is off can
             // think a sled still coasting stopped); a sled friction holds short is handed over
             // after ARRIVAL_WAIT_SAMPLES in the band.
             state.arrival_wait = state.arrival_wait.saturating_add(1);
-            // In the settle band, the observer at rest and the reading still.
             let arrived = e.unsigned_abs() <= self.selector.settle_band_raw()
                 && g.seek.at_rest(v_seek)
                 && dy1 == 0;

@@ -157,12 +157,7 @@ fn controllers(
     params: &TwinParams,
     family: &FamilyOptions,
 ) -> Result<(SeekController, SeekController), String> {
-    let prior = if family.exact_prior {
-        &params.plant
-    } else {
-        &family.prior
-    };
-    let design = design_from_prior(params, prior)?;
+    let design = design_from_prior(params, family.prior_for(&params.plant))?;
     let seek = if family.exact_prior {
         seek_design(design).with_trusted_prior()
     } else {

@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 use sledid::control::ScheduledDesign;
-use sledid::servo::{Identification, ServoOptions, StopReason};
+use sledid::servo::{Identification, ServoOptions};
 
 use super::access::{Quantiles, access_samples, min_dwell_samples};
 use crate::control::run::{ControlRun, run_with_options};
@@ -205,7 +205,7 @@ pub struct SeekSummary {
 /// A latched safe stop of a run.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SafeStop {
-    /// `StopReason`'s name.
+    /// `StopReason::name`.
     pub reason: &'static str,
     /// The sample it latched at.
     pub sample: usize,
@@ -226,13 +226,7 @@ impl SafeStop {
             .rposition(|s| s.start_index <= sample)
             .unwrap_or(0);
         Some(Self {
-            reason: match reason {
-                StopReason::Runaway => "runaway",
-                StopReason::Travel => "travel",
-                StopReason::SensorLost => "sensor_lost",
-                StopReason::Stall => "stall",
-                StopReason::Fallbacks => "fallbacks",
-            },
+            reason: reason.name(),
             sample,
             seek,
             position_quanta: run.twin.samples().get(sample).map_or(0, |s| s.y_counts),
