@@ -76,6 +76,9 @@ pub enum ConfigError {
     /// Safety layer: end stops not finite or not ordered, a negative margin or coasting time, a
     /// zero count, more than 7 fallbacks.
     Safety(f64),
+    /// Power-on calibration: a drive, ratio, distance, count or limit out of its range
+    /// (`crate::servo::calibration::CalibrationDesign::build` names each range).
+    Calibration(f64),
     /// Model orders: (na, nb) do not sum to the parameter count, or an order is unsupported.
     ModelOrder {
         /// Output (denominator) order.
@@ -181,6 +184,10 @@ impl fmt::Display for ConfigError {
             Self::Safety(v) => write!(
                 f,
                 "safety = {v}: end stops finite and ordered with room between the margins, margins and coasting ≥ 0, counts ≥ 1, at most 7 fallbacks"
+            ),
+            Self::Calibration(v) => write!(
+                f,
+                "calibration = {v}: drives in (0, 1], ratios above 1, distances and counts ≥ 1, a push within the record, the gain range ordered"
             ),
             Self::SeekDesign(v) => write!(
                 f,

@@ -268,6 +268,32 @@ impl Twin {
         Some(sample)
     }
 
+    /// Runs `controller` on the plant before the seek schedule (power-on calibration), fed its own
+    /// reading as the reference, until `done(controller)` or `max` samples: nothing is recorded
+    /// and the schedule does not advance; the sensor noise stream does. Returns the samples run.
+    pub fn pre_roll<C: SledController>(
+        &mut self,
+        controller: &mut C,
+        mut done: impl FnMut(&C) -> bool,
+        max: usize,
+    ) -> usize {
+        let quantum_m = self.params.plant.quantum_m;
+        for k in 0..max {
+            if done(controller) {
+                return k;
+            }
+            let noise_m = if self.params.plant.noise_m > 0.0 {
+                self.params.plant.noise_m * self.noise.next_standard()
+            } else {
+                0.0
+            };
+            let y = ((self.plant.position_m() + noise_m) / quantum_m).round();
+            let command_v = controller.step(y, y);
+            self.plant.advance(command_v, self.params.plant.ts_s);
+        }
+        max
+    }
+
     /// Runs until every seek has ended; returns the number of samples simulated.
     pub fn run<C: SledController + ?Sized>(&mut self, controller: &mut C) -> usize {
         let before = self.samples.len();

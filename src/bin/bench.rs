@@ -388,6 +388,7 @@ impl LoopBench {
             velocity,
             options: sledid::servo::ServoOptions::default(),
             safety: sledid::servo::SafetyDesign::default(),
+            calibration: None,
         }
         .build()
         .ok()?;

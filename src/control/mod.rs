@@ -94,4 +94,11 @@ pub trait Controller {
 
     /// Applies a finished redesign at its hand-over sample.
     fn adopt(&self, state: &mut Self::State, design: &Self::Design);
+
+    /// The job that places gains from `theta` whatever the supervisor's record (the servo's
+    /// power-on calibration: a model measured by an experiment, not learnt on-line).
+    fn place_job(&self, theta: &[ParamI12F20]) -> Self::Job;
+
+    /// Whether a finished redesign placed gains (a refused model is not adopted as calibrated).
+    fn placed(design: &Self::Design) -> bool;
 }

@@ -588,6 +588,12 @@ impl Controller for PidConfig {
     fn redesign(&self, _: &()) {}
 
     fn adopt(&self, _: &mut PidState, _: &()) {}
+
+    fn place_job(&self, _: &[crate::num::fixed::ParamI12F20]) {}
+
+    fn placed(_: &()) -> bool {
+        true
+    }
 }
 
 /// Words: 0 `Error`, 1 `Measurement`.

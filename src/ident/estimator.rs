@@ -42,6 +42,10 @@ pub trait Estimator<const N: usize> {
 
     /// Holds (false) or enables (true) adaptation.
     fn set_enabled(&self, state: &mut Self::State, enabled: bool);
+
+    /// Restarts the estimate from `theta` with P = p₀·I (a model known from elsewhere, e.g. the
+    /// servo's power-on calibration); the signal history and the enable state are kept.
+    fn seed(&self, state: &mut Self::State, theta: &[ParamI12F20; N]);
 }
 
 /// User-facing settings of a model estimator: validate and quantise into an [`Estimator`].

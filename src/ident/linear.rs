@@ -396,6 +396,10 @@ impl<const N: usize> Estimator<N> for LinearConfig<N> {
     fn set_enabled(&self, state: &mut LinearState<N>, enabled: bool) {
         state.set_enabled(enabled);
     }
+
+    fn seed(&self, state: &mut LinearState<N>, theta: &[ParamI12F20; N]) {
+        state.rls.reset(&self.rls, *theta);
+    }
 }
 
 /// Words: the variant's index (`Arx` 0, `OutputErrorPseudoLinear` 1, `OutputErrorPredictionError`

@@ -198,6 +198,8 @@ pub trait Identifier {
     fn report(output: &Self::Output) -> ModelReport;
     /// The current estimate θ.
     fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20];
+    /// Restarts the estimate from `theta` (its first entries; the rest keep theirs), P = p₀·I.
+    fn seed(&self, state: &mut Self::State, theta: &[ParamI12F20]);
 }
 
 impl<const N: usize, M: Estimator<N>> Identifier for IdentifierConfig<N, M> {
@@ -229,6 +231,14 @@ impl<const N: usize, M: Estimator<N>> Identifier for IdentifierConfig<N, M> {
 
     fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20] {
         self.model.theta(&state.model)
+    }
+
+    fn seed(&self, state: &mut Self::State, theta: &[ParamI12F20]) {
+        let mut full = *self.model.theta(&state.model);
+        for (f, t) in full.iter_mut().zip(theta) {
+            *f = *t;
+        }
+        self.model.seed(&mut state.model, &full);
     }
 }
 

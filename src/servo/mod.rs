@@ -39,13 +39,18 @@ use crate::ident::linear::{LinearConfig, LinearDesign, Structure};
 use crate::ident::rls::{AntiWindup, RlsDesign};
 use crate::ident::step::{Identifier, IdentifierConfig, IdentifierDesign, StepOutput};
 use crate::num::boundary::{PositionI48F16, Sample};
-use crate::num::fixed::SignalI16F16;
+use crate::num::fixed::{ParamI12F20, SignalI16F16};
 use crate::words::{WordReader, WordWriter, Words};
 
+pub mod calibration;
 pub mod hal;
 pub mod handover;
 pub mod safety;
 
+pub use calibration::{
+    CalibratedModel, CalibrationConfig, CalibrationDesign, CalibrationRecord, CalibrationState,
+    Refusal,
+};
 pub use handover::{Handover, HandoverEvent, Posted, Ticket};
 pub use safety::{SafetyConfig, SafetyDesign, SafetyState, StopReason};
 
@@ -75,6 +80,8 @@ pub struct ServoDesign {
     pub options: ServoOptions,
     /// The safety layer below the controller.
     pub safety: SafetyDesign,
+    /// Power-on calibration before the first seek (`None`: the servo starts from the prior).
+    pub calibration: Option<CalibrationDesign>,
 }
 
 /// Whether the identifier learns on-line.
@@ -84,7 +91,7 @@ pub enum Identification {
     #[default]
     OnLine,
     /// The identifier never adapts: the controller keeps the prior's design (the ablation that
-    /// shows what identification earns).
+    /// shows what identification earns) — or, with power-on calibration, the calibrated model's.
     FrozenAtPrior,
 }
 
@@ -205,6 +212,24 @@ pub struct ServoConfig<C, I> {
     identifier: I,
     settings: ServoSettings,
     safety: SafetyConfig,
+    calibration: Option<CalibrationConfig>,
+}
+
+/// The background's answer to calibration's record: the model, θ for the identifier and the
+/// controller's first design from it, or why the sled is refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Calibrated<D> {
+    /// The sled's model.
+    Model {
+        /// What the fit found.
+        model: CalibratedModel,
+        /// The identifier's θ from it.
+        theta: [ParamI12F20; VELOCITY_N],
+        /// The controller's design placed from θ.
+        design: D,
+    },
+    /// The sled does not respond like one.
+    Refused(Refusal),
 }
 
 /// Everything one sample (or an adopted redesign) mutates.
@@ -222,6 +247,12 @@ pub struct ServoState<C: Controller, I: Identifier> {
     safety: SafetyState,
     /// The controller was in its fallback on the last sample.
     in_fallback: bool,
+    /// Power-on calibration's progress (finished from the start without one).
+    calibration: CalibrationState,
+    /// Calibration's record to the background and its answer back.
+    fit: Handover<CalibrationRecord, Calibrated<C::Design>>,
+    /// What calibration found, once adopted.
+    calibrated: Option<CalibratedModel>,
 }
 
 /// What the servo itself did in one sample (beside the controller's [`ControlFlags`]).
@@ -241,13 +272,16 @@ impl ServoFlags {
     /// The safety layer has cut the drive ([`ServoOutput::stop`] says why); latched until
     /// [`ServoConfig::reset_safe_stop`].
     pub const SAFE_STOP: Self = Self(1 << 3);
+    /// Power-on calibration owns the drive (the reference is not followed yet).
+    pub const CALIBRATING: Self = Self(1 << 4);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 4] = [
+    pub const NAMES: [(Self, &'static str); 5] = [
         (Self::REDESIGN_POSTED, "redesign_posted"),
         (Self::REDESIGN_ADOPTED, "redesign_adopted"),
         (Self::HANDOVER_MISSED, "handover_missed"),
         (Self::SAFE_STOP, "safe_stop"),
+        (Self::CALIBRATING, "calibrating"),
     ];
 }
 
@@ -302,7 +336,15 @@ impl ServoDesign {
                 stall_drive_fs: (24.0 * coulomb_fs).clamp(0.1, 0.5),
                 ..SafetyDesign::default()
             },
+            calibration: None,
         }
+    }
+
+    /// This servo with power-on calibration ([`CalibrationDesign::default`]).
+    #[must_use]
+    pub fn with_calibration(mut self) -> Self {
+        self.calibration = Some(CalibrationDesign::default());
+        self
     }
 
     /// Validates and quantises every part.
@@ -312,12 +354,13 @@ impl ServoDesign {
     /// [`ConfigError::ModelOrder`] when the controller reads θ otherwise than the identifier
     /// writes it.
     pub fn build(&self) -> Result<SledServo, ConfigError> {
-        let config = ServoConfig::new(
+        let mut config = ServoConfig::new(
             self.controller.build()?,
             self.velocity.build()?,
             self.options.build()?,
             self.safety.build()?,
         );
+        config.calibration = self.calibration.map(|c| c.build()).transpose()?;
         config.check_model()?;
         Ok(config)
     }
@@ -344,17 +387,18 @@ impl ServoDesign {
         self.velocity.put_words(&mut w).map_err(at)?;
         built.settings.put(&mut w).map_err(at)?;
         built.safety.put(&mut w).map_err(at)?;
+        built.calibration.put(&mut w).map_err(at)?;
         built.controller.put(&mut w).map_err(at)?;
         let payload_len = w.len();
         crate::words::seal(out, payload_len)
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 255 (3 of framing, the
-/// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings and
-/// safety layer, the controller with both maps and time-optimal seeks;
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 272 (3 of framing, the
+/// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings, safety
+/// layer and power-on calibration, the controller with both maps and time-optimal seeks;
 /// `host-tests/tests/sled_loop.rs` counts them).
-pub const SERVO_WORDS_MAX: usize = 256;
+pub const SERVO_WORDS_MAX: usize = 272;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, with the servo's own
@@ -370,7 +414,20 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             identifier,
             settings,
             safety,
+            calibration: None,
         }
+    }
+
+    /// This servo with power-on calibration `calibration` (`None`: without).
+    #[must_use]
+    pub fn with_calibration(mut self, calibration: Option<CalibrationConfig>) -> Self {
+        self.calibration = calibration;
+        self
+    }
+
+    /// Power-on calibration's configuration, if the servo calibrates.
+    pub fn calibration(&self) -> Option<&CalibrationConfig> {
+        self.calibration.as_ref()
     }
 
     /// The safety layer's configuration.
@@ -385,6 +442,19 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         state.safety = SafetyState::new();
         state.controller = self.controller.new_state();
         state.in_fallback = false;
+        if !state.calibration.is_done() {
+            // A refused (or interrupted) calibration runs again from where the sled is.
+            state.calibration = self.fresh_calibration();
+            state.fit = Handover::new();
+        }
+    }
+
+    fn fresh_calibration(&self) -> CalibrationState {
+        if self.calibration.is_some() {
+            CalibrationState::new()
+        } else {
+            CalibrationState::finished()
+        }
     }
 
     /// A fresh state.
@@ -400,6 +470,9 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             handover: Handover::new(),
             safety: SafetyState::new(),
             in_fallback: false,
+            calibration: self.fresh_calibration(),
+            fit: Handover::new(),
+            calibrated: None,
         }
     }
 
@@ -427,10 +500,40 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// The background's whole turn at once (the host's, between two samples): takes the posted
     /// job, if any, redesigns and delivers. Returns the design delivered.
     pub fn run_background(&self, state: &mut ServoState<C, I>) -> Option<C::Design> {
+        if let Some(posted) = state.fit.take_job() {
+            let answer = self.calibrate(&posted.job);
+            state.fit.deliver(posted.ticket, answer);
+        }
         let posted = state.take_job()?;
         let design = self.redesign(&posted);
         state.deliver(posted.ticket, design);
         Some(design)
+    }
+
+    /// The background's work on calibration's record: the fit ([`calibration::fit`]), θ, and the
+    /// controller's design placed from it (a model the controller refuses is refused as
+    /// [`Refusal::Gain`]). Outside the sample interrupt.
+    pub fn calibrate(&self, record: &CalibrationRecord) -> Calibrated<C::Design> {
+        let Some(config) = &self.calibration else {
+            return Calibrated::Refused(Refusal::Fit);
+        };
+        let model = match calibration::fit(config, record) {
+            Ok(m) => m,
+            Err(r) => return Calibrated::Refused(r),
+        };
+        let Some(theta) = model.theta() else {
+            return Calibrated::Refused(Refusal::Gain);
+        };
+        let design = self.controller.redesign(&self.controller.place_job(&theta));
+        if C::placed(&design) {
+            Calibrated::Model {
+                model,
+                theta,
+                design,
+            }
+        } else {
+            Calibrated::Refused(Refusal::Gain)
+        }
     }
 
     /// One sample: reference r(k) and measurement y(k) in, drive u(k) out. Never panics.
@@ -489,6 +592,11 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         }
         let y = measured.unwrap_or(state.last_y);
         state.last_y = y;
+        if let Some(cal) = &self.calibration
+            && state.calibration.is_running()
+        {
+            return self.calibration_step(cal, state, measured, u_applied);
+        }
         let mut report = state.report;
         if measured.is_none() {
             report
@@ -553,6 +661,99 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             identifier: identified,
         }
     }
+
+    /// A sample of power-on calibration: the experiment's drive (the reference is not followed),
+    /// the safety layer armed around where the experiment started, the identifier stepped without
+    /// adapting, the record posted to the background, the fit adopted at its due sample.
+    fn calibration_step(
+        &self,
+        cal: &CalibrationConfig,
+        state: &mut ServoState<C, I>,
+        measured: Option<PositionI48F16>,
+        u_applied: Option<SignalI16F16>,
+    ) -> ServoOutput<I::Output> {
+        let mut servo = ServoFlags::CALIBRATING;
+        match state.fit.due(state.k) {
+            HandoverEvent::Idle => {}
+            HandoverEvent::Adopt(Calibrated::Model {
+                model,
+                theta,
+                design,
+            }) => {
+                self.identifier.seed(&mut state.identifier, &theta);
+                state.controller = self.controller.new_state();
+                self.controller.adopt(&mut state.controller, &design);
+                state.calibration.finish();
+                state.calibrated = Some(model);
+                servo.insert(ServoFlags::REDESIGN_ADOPTED);
+            }
+            HandoverEvent::Adopt(Calibrated::Refused(r)) => {
+                state.calibration.refuse(r);
+                state.safety.latch(StopReason::Calibration(r));
+            }
+            HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
+        }
+        let (u_raw, event) = state
+            .calibration
+            .step(cal, measured.map(PositionI48F16::raw));
+        let mut u = SignalI16F16::from_raw(u_raw);
+        let latency = cal.latency();
+        let due = state.k.wrapping_add(latency);
+        match event {
+            calibration::experiment::Event::Recorded => {
+                state.fit.post(*state.calibration.record(), due);
+            }
+            calibration::experiment::Event::Refused(r) => {
+                state.safety.latch(StopReason::Calibration(r));
+            }
+            calibration::experiment::Event::None => {
+                if state.calibration.is_running()
+                    && state.calibration.samples() > 0
+                    && state.fit.is_free()
+                    && servo.contains(ServoFlags::HANDOVER_MISSED)
+                {
+                    // The fit missed its sample: the record is posted again.
+                    state.fit.post(*state.calibration.record(), due);
+                }
+            }
+        }
+        let home = PositionI48F16::from_raw(state.calibration.home());
+        let mut stop = self
+            .safety
+            .check(&mut state.safety, home, measured, u, false, false);
+        if let Some(r) = state.calibration.refusal() {
+            stop = Some(stop.unwrap_or(StopReason::Calibration(r)));
+        }
+        if stop.is_some() {
+            u = SignalI16F16::ZERO;
+            servo.insert(ServoFlags::SAFE_STOP);
+        }
+        if let Some(y) = measured {
+            (state.y2, state.y1) = (state.y1, y.raw());
+        }
+        self.identifier.set_adapting(&mut state.identifier, false);
+        let identified = match measured {
+            Some(y) => self.identifier.identify(
+                &mut state.identifier,
+                &Sample {
+                    y,
+                    u: u_applied.unwrap_or(u),
+                    r: y,
+                },
+            ),
+            None => self.identifier.reject(&mut state.identifier),
+        };
+        state.report = I::report(&identified);
+        state.k = state.k.wrapping_add(1);
+        ServoOutput {
+            u,
+            region: Region::Hold,
+            control: ControlFlags::NONE,
+            servo,
+            stop,
+            identifier: identified,
+        }
+    }
 }
 
 impl<C: Controller, I: Identifier> ServoState<C, I> {
@@ -591,6 +792,26 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
     pub fn safe_stop(&self) -> Option<StopReason> {
         self.safety.stopped()
     }
+
+    /// Power-on calibration's progress.
+    pub fn calibration(&self) -> &CalibrationState {
+        &self.calibration
+    }
+
+    /// What calibration found, once adopted.
+    pub fn calibrated(&self) -> Option<&CalibratedModel> {
+        self.calibrated.as_ref()
+    }
+
+    /// The background's side of calibration's hand-over: the record, once.
+    pub fn take_calibration_job(&mut self) -> Option<Posted<CalibrationRecord>> {
+        self.fit.take_job()
+    }
+
+    /// The background's side of calibration's hand-over: the answer for `ticket`.
+    pub fn deliver_calibration(&mut self, ticket: Ticket, answer: Calibrated<C::Design>) -> bool {
+        self.fit.deliver(ticket, answer)
+    }
 }
 
 impl<C: Controller, I: Identifier> Clone for ServoState<C, I>
@@ -610,6 +831,9 @@ where
             handover: self.handover,
             safety: self.safety,
             in_fallback: self.in_fallback,
+            calibration: self.calibration,
+            fit: self.fit,
+            calibrated: self.calibrated,
         }
     }
 }
@@ -659,12 +883,14 @@ impl SledServo {
         let identifier = IdentifierConfig::take_words(&mut r)?;
         let settings = ServoSettings::take(&mut r);
         let safety = SafetyConfig::take(&mut r);
+        let calibration = <Option<CalibrationConfig> as Words>::take(&mut r);
         // `insert` builds the value in the slot (`*slot = Some(…)` measured 64 B more stack).
         let _config = slot.insert(Self {
             controller: ScheduledConfig::take(&mut r),
             identifier,
             settings,
             safety,
+            calibration,
         });
         let done = r
             .finish()
@@ -687,6 +913,9 @@ impl SledServo {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.settings.validate()?;
         self.safety.validate()?;
+        if let Some(c) = &self.calibration {
+            c.validate()?;
+        }
         self.identifier.validate()?;
         self.controller.validate()?;
         self.check_model()

@@ -55,10 +55,13 @@ pub enum StopReason {
     Stall,
     /// The controller fell back too often.
     Fallbacks,
+    /// Power-on calibration refused the sled (it does not respond like one): the servo does not
+    /// seek on a guess.
+    Calibration(super::calibration::Refusal),
 }
 
 impl StopReason {
-    /// A code for logs and the firmware's result line: 1 … 5.
+    /// A code for logs and the firmware's result line: 1 … 5, calibration's refusals 6 … 11.
     pub const fn code(self) -> u8 {
         match self {
             Self::Runaway => 1,
@@ -66,6 +69,7 @@ impl StopReason {
             Self::SensorLost => 3,
             Self::Stall => 4,
             Self::Fallbacks => 5,
+            Self::Calibration(r) => 6 + r.index(),
         }
     }
 
@@ -77,6 +81,7 @@ impl StopReason {
             Self::SensorLost => "sensor_lost",
             Self::Stall => "stall",
             Self::Fallbacks => "fallbacks",
+            Self::Calibration(r) => r.name(),
         }
     }
 }
@@ -388,6 +393,11 @@ pub struct SafetyState {
 }
 
 impl SafetyState {
+    /// Latches a stop decided above the layer (calibration's refusal); an earlier stop stays.
+    pub fn latch(&mut self, reason: StopReason) {
+        self.latched.get_or_insert(reason);
+    }
+
     /// Nothing seen, not stopped.
     pub const fn new() -> Self {
         Self {

@@ -64,6 +64,9 @@ pub struct Args {
     /// seek law alone on the exact model).
     #[arg(long, value_enum, default_value = "online")]
     pub identification: IdentificationArg,
+    /// The seek mode calibrates at power-on before its first seek (`sledid::servo::calibration`).
+    #[arg(long)]
+    pub calibrate: bool,
     /// Output directory: summary.json, seek_vs_distance.png, seek_steps.png.
     #[arg(long)]
     pub out: PathBuf,
@@ -134,6 +137,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         seed: a.seed,
         dwell_s: a.dwell_ms * 1e-3,
         frozen: a.identification == IdentificationArg::Frozen,
+        calibrate: a.calibrate,
     };
     let design = design_from_prior(&params, &prior.plant)?;
     let under_test = match a.controller {
@@ -211,6 +215,9 @@ pub fn run(a: &Args) -> Result<(), String> {
         ),
         None => String::new(),
     };
+    if let Some(c) = &tested.run.calibration {
+        println!("{}", c.line(params.plant.ts_s));
+    }
     println!("{}{}", line(&tested.summary), stop(&tested.summary));
     if let Some(r) = &reference {
         println!("{}{}", line(&r.summary), stop(&r.summary));

@@ -44,6 +44,8 @@ pub struct FamilyOptions {
     pub exact_prior: bool,
     /// The seek pass's servos never adapt (identification frozen at the prior).
     pub frozen: bool,
+    /// The seek pass's seek mode calibrates at power-on.
+    pub calibrate: bool,
 }
 
 impl FamilyOptions {
@@ -65,6 +67,7 @@ impl Default for FamilyOptions {
             prior: PlantParams::default(),
             exact_prior: false,
             frozen: false,
+            calibrate: false,
         }
     }
 }

@@ -36,6 +36,7 @@
 //!   good — no controller that follows the reference settles earlier (by more than the overshoot
 //!   of a faster-than-reference seek, which the reference does not ask for).
 
+pub mod calibration;
 pub mod design;
 pub mod family;
 pub mod family_eval;

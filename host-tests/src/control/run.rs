@@ -4,7 +4,8 @@
 use sledid::control::{ControlFlags, Redesign, Region, ScheduledDesign};
 use sledid::ident::step::IdentifierDesign;
 use sledid::servo::{
-    SafetyDesign, ServoDesign, ServoOptions, SledServo, SledServoState, StopReason, VELOCITY_N,
+    CalibratedModel, CalibrationDesign, CalibrationRecord, Refusal, SafetyDesign, ServoDesign,
+    ServoOptions, SledServo, SledServoState, StopReason, VELOCITY_N,
 };
 
 use super::design::{identifier_design, scheduled_design_for};
@@ -65,6 +66,7 @@ impl ScheduledLoop {
             velocity: *identifier,
             options,
             safety,
+            calibration: None,
         }
         .build()
         .map_err(|e| e.to_string())?;
@@ -75,6 +77,42 @@ impl ScheduledLoop {
             trace: Vec::new(),
             redesigns: Vec::new(),
             first_stop: None,
+        })
+    }
+
+    /// This loop with power-on calibration `calibration` (`None`: without), from a fresh state.
+    ///
+    /// # Errors
+    /// The calibration design's error.
+    pub fn with_calibration(
+        mut self,
+        calibration: Option<CalibrationDesign>,
+    ) -> Result<Self, String> {
+        let built = calibration
+            .map(|c| c.build())
+            .transpose()
+            .map_err(|e| e.to_string())?;
+        self.config = self.config.with_calibration(built);
+        self.state = self.config.new_state();
+        Ok(self)
+    }
+
+    /// Runs power-on calibration on `twin` before its schedule ([`Twin::pre_roll`]); the trace
+    /// restarts with the schedule, a refusal is the run's first stop (at sample 0).
+    pub fn calibrate(&mut self, twin: &mut Twin) -> Option<CalibrationOutcome> {
+        self.config.calibration()?;
+        let samples = twin.pre_roll(self, |c| !c.state.calibration().is_running(), 10_000);
+        self.trace.clear();
+        self.first_stop = self.first_stop.map(|(_, r)| (0, r));
+        let cal = self.state.calibration();
+        Some(CalibrationOutcome {
+            samples,
+            experiment_samples: usize::from(cal.samples()),
+            travel_quanta: f64::from(cal.record().travel_i16f16) / 65536.0,
+            model: self.state.calibrated().copied(),
+            refusal: cal.refusal(),
+            theta: self.theta(),
+            record: *cal.record(),
         })
     }
 
@@ -103,6 +141,94 @@ impl SledController for ScheduledLoop {
     }
 }
 
+/// What power-on calibration did before a run's schedule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibrationOutcome {
+    /// Samples from power-on to the first seek (the experiment, the fit's hand-over).
+    pub samples: usize,
+    /// Samples of the experiment itself.
+    pub experiment_samples: usize,
+    /// The furthest the experiment moved the sled from where it started, quanta.
+    pub travel_quanta: f64,
+    /// The model adopted.
+    pub model: Option<CalibratedModel>,
+    /// Why the sled was refused.
+    pub refusal: Option<Refusal>,
+    /// The identifier's θ after calibration.
+    pub theta: [f64; VELOCITY_N],
+    /// The experiment's record (what the fit saw).
+    pub record: CalibrationRecord,
+}
+
+/// [`CalibrationOutcome`] for reports (`summary.json`, the summary line).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CalibrationBrief {
+    /// Samples from power-on to the first seek.
+    pub samples: usize,
+    /// Samples of the experiment.
+    pub experiment_samples: usize,
+    /// ms from power-on to the first seek.
+    pub time_ms: f64,
+    /// The furthest the experiment went from its start, quanta.
+    pub travel_quanta: f64,
+    /// The velocity pole a.
+    pub a: Option<f64>,
+    /// The gain b, quanta per sample² per full scale.
+    pub b: Option<f64>,
+    /// The Coulomb level (+, −), fraction of full scale.
+    pub coulomb_fs: Option<[f64; 2]>,
+    /// The breakaway drive (+, −), fraction of full scale.
+    pub breakaway_fs: Option<[f64; 2]>,
+    /// RMS residual of the fit, quanta.
+    pub rms_quanta: Option<f64>,
+    /// Why the sled was refused.
+    pub refusal: Option<&'static str>,
+}
+
+impl CalibrationOutcome {
+    /// The brief, with the sampling period `ts_s`.
+    pub fn brief(&self, ts_s: f64) -> CalibrationBrief {
+        let m = self.model.as_ref();
+        CalibrationBrief {
+            samples: self.samples,
+            experiment_samples: self.experiment_samples,
+            time_ms: self.samples as f64 * ts_s * 1e3,
+            travel_quanta: self.travel_quanta,
+            a: m.map(|m| f64::from(m.a)),
+            b: m.map(|m| f64::from(m.b())),
+            coulomb_fs: m.map(|m| m.coulomb_fs.map(f64::from)),
+            breakaway_fs: m.map(|m| m.breakaway_fs.map(f64::from)),
+            rms_quanta: m.map(|m| f64::from(m.rms)),
+            refusal: self.refusal.map(Refusal::name),
+        }
+    }
+
+    /// One line: time, travel, the model or the refusal.
+    pub fn line(&self, ts_s: f64) -> String {
+        let b = self.brief(ts_s);
+        match (&self.model, b.refusal) {
+            (Some(m), _) => format!(
+                "calibration: {} samples ({:.1} ms) to the first seek, {:.0} quanta of travel; a {:.3}, b {:.2} quanta/sample² per full scale, Coulomb {:.4} / {:.4}, breakaway {:.4} / {:.4} of full scale (+ / −), fit RMS {:.2} quanta",
+                b.samples,
+                b.time_ms,
+                b.travel_quanta,
+                m.a,
+                m.b(),
+                m.coulomb_fs[0],
+                m.coulomb_fs[1],
+                m.breakaway_fs[0],
+                m.breakaway_fs[1],
+                m.rms
+            ),
+            (None, Some(r)) => format!(
+                "calibration REFUSED ({r}) after {} samples, {:.0} quanta of travel: the servo does not seek",
+                b.experiment_samples, b.travel_quanta
+            ),
+            (None, None) => "calibration: did not finish".to_owned(),
+        }
+    }
+}
+
 /// A finished closed-loop run.
 pub struct ControlRun {
     /// The twin with its recording.
@@ -115,6 +241,8 @@ pub struct ControlRun {
     pub redesigns: Vec<Redesign>,
     /// The servo's first safe stop (sample, reason), if any.
     pub first_stop: Option<(usize, StopReason)>,
+    /// Power-on calibration, when the servo calibrated.
+    pub calibration: Option<CalibrationOutcome>,
 }
 
 impl ControlRun {
@@ -221,11 +349,28 @@ pub fn run_with_options(
     design: Option<&ScheduledDesign>,
     options: ServoOptions,
 ) -> Result<ControlRun, String> {
+    run_servo(params, seed, seeks, design, options, None)
+}
+
+/// [`run_with_options`] with power-on calibration before the schedule (`calibration`; ignored
+/// for the baseline).
+///
+/// # Errors
+/// Twin, controller or calibration configuration errors.
+pub fn run_servo(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+    options: ServoOptions,
+    calibration: Option<CalibrationDesign>,
+) -> Result<ControlRun, String> {
     let mut params = params.clone();
     params.reference.seek_count = seeks;
     params.reference.targets_tracks = None;
     let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
     let p = &params.plant;
+    let mut calibrated = None;
     let (trace, redesigns, first_stop, kind) = match design {
         None => {
             let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
@@ -240,7 +385,9 @@ pub fn run_with_options(
                 &identifier_design(design),
                 options,
                 twin_safety(&params, design),
-            )?;
+            )?
+            .with_calibration(calibration)?;
+            calibrated = c.calibrate(&mut twin);
             twin.set_controller_label("scheduled");
             twin.run(&mut c);
             (
@@ -259,5 +406,6 @@ pub fn run_with_options(
         summary,
         redesigns,
         first_stop,
+        calibration: calibrated,
     })
 }

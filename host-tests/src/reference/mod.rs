@@ -16,6 +16,7 @@
 //!   simulation RMS reported by the study).
 
 pub mod batch;
+pub mod calibration;
 pub mod control;
 pub mod decimate;
 pub mod linear;

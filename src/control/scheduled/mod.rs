@@ -936,14 +936,22 @@ impl Controller for ScheduledConfig {
             return Some(RedesignJob::Skip);
         }
         state.trusted_updates = 0;
+        Some(self.place_job(theta))
+    }
+
+    fn place_job(&self, theta: &[ParamI12F20]) -> RedesignJob {
         let mut copy = [ParamI12F20::ZERO; MAX_MODEL_PARAMS];
         for (c, t) in copy.iter_mut().zip(theta) {
             *c = *t;
         }
-        Some(RedesignJob::Place {
+        RedesignJob::Place {
             theta: copy,
             len: theta.len().min(MAX_MODEL_PARAMS) as u8, // ≤ 4
-        })
+        }
+    }
+
+    fn placed(design: &RedesignResult) -> bool {
+        matches!(design.outcome, Redesign::Applied(_)) && design.gains.is_some()
     }
 
     /// θ → checked velocity model → placed gains (f32, outside the interrupt); with

@@ -327,6 +327,10 @@ impl<const N: usize> Estimator<N> for NonlinearConfig<N> {
     fn set_enabled(&self, state: &mut NonlinearState<N>, enabled: bool) {
         state.set_enabled(enabled);
     }
+
+    fn seed(&self, state: &mut NonlinearState<N>, theta: &[ParamI12F20; N]) {
+        state.rls.reset(&self.rls, *theta);
+    }
 }
 
 impl<const N: usize> NonlinearDesign<N> {

@@ -176,6 +176,7 @@ fn family_schedule(family: &FamilyOptions, schedule: &SeekOptions) -> SeekOption
         seeks: family.seeks,
         seed: family.run_seed,
         frozen: family.frozen,
+        calibrate: family.calibrate,
         ..*schedule
     }
 }

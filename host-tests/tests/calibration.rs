@@ -1,0 +1,255 @@
+//! Power-on calibration (`sledid::servo::calibration`): the experiment and its fit on the plant
+//! family, the fit against its float64 reference, and the sleds it must refuse.
+//!
+//! Measured (`cargo test -p sledid-host --test calibration -- --nocapture`; the servo designed
+//! from the nominal prior, each plant of the family calibrated once, noise seed = plant index):
+//!
+//! | family seed | gain b within 10 % / 25 % | b error median / max | samples median / max | travel median / max (quanta) | Coulomb ≥ 0.5 % FS within 25 % |
+//! |---|---|---|---|---|---|
+//! | 1 | 197 / 200 of 200 | 1.1 % / 11.5 % | 159 / 235 | 46 / 92 | 112 of 117 |
+//! | 7 | 195 / 200 of 200 | 1.3 % / 16.5 % | 162 / 249 | 47 / 80 | 124 of 132 |
+//!
+//! The misses beyond 10 % are strongly damped sleds (a ≤ 0.35) whose pole and gain trade off
+//! within a track's quantisation. BENCHMARKS.md (calibration) holds the per-plant figures.
+
+use sledid::PositionI48F16;
+use sledid::servo::{CalibrationDesign, Refusal, ServoFlags, StopReason};
+use sledid_host::control::calibration::{CalibrationCheck, family};
+use sledid_host::control::design::{design_from_prior, identifier_design};
+use sledid_host::control::family_eval::FamilyOptions;
+use sledid_host::control::run::ScheduledLoop;
+use sledid_host::control::seek::run::seek_design;
+use sledid_host::reference::calibration::fit_f64;
+use sledid_host::twin::{PlantParams, SledController, Twin, TwinParams};
+
+fn quantile(mut v: Vec<f64>, p: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+fn checks(seed: u64) -> Vec<CalibrationCheck> {
+    let c = family(&FamilyOptions {
+        plants: 200,
+        seed,
+        ..FamilyOptions::default()
+    })
+    .expect("the family calibrates");
+    let err: Vec<f64> = c.iter().map(CalibrationCheck::gain_error).collect();
+    let within = |t: f64| err.iter().filter(|e| **e <= t).count();
+    let samples: Vec<f64> = c.iter().map(|c| c.samples as f64).collect();
+    let travel: Vec<f64> = c.iter().map(|c| c.travel_quanta).collect();
+    let coulomb: Vec<f64> = c
+        .iter()
+        .filter(|c| c.true_coulomb_fs >= 0.005)
+        .map(CalibrationCheck::coulomb_error)
+        .collect();
+    println!(
+        "seed {seed}: b within 10 % {} / 25 % {} of {}, error median {:.3} max {:.3}; samples median {} max {}; travel median {:.0} max {:.0}; Coulomb ≥ 0.5 % FS within 25 %: {} of {}",
+        within(0.10),
+        within(0.25),
+        c.len(),
+        quantile(err.clone(), 0.5),
+        quantile(err.clone(), 1.0),
+        quantile(samples.clone(), 0.5),
+        quantile(samples, 1.0),
+        quantile(travel.clone(), 0.5),
+        quantile(travel, 1.0),
+        coulomb.iter().filter(|e| **e <= 0.25).count(),
+        coulomb.len()
+    );
+    for c in c.iter().filter(|c| c.gain_error() > 0.1) {
+        println!(
+            "  plant {} {:?}: true {:?} found {:?}",
+            c.index, c.refusal, c.true_model, c.found
+        );
+    }
+    c
+}
+
+/// The targets on each family: b within ±10 % of the truth on ≥ 95 % of the plants and
+/// within ±25 % on all, no healthy sled refused, ≤ 330 samples and ≤ 200 quanta of travel, the
+/// Coulomb level within ±25 % on ≥ 90 % of the plants whose Coulomb level is ≥ 0.5 % of full
+/// scale (none of the family reaches the 5 %: its largest is 3 %). Trips on a fit that
+/// ignores the ZOH's intra-sample motion or the Coulomb term (b off by the friction's share), a
+/// push that stops before the sled shows its pole, a breakaway search that mistakes creep for a
+/// reversed sled (the refusals), or a rest that does not brake a coasting sled (travel).
+#[test]
+fn calibration_measures_every_plant_of_the_family() {
+    for seed in [1, 7] {
+        let c = checks(seed);
+        assert_eq!(c.len(), 200);
+        let refused: Vec<_> = c.iter().filter(|c| c.refusal.is_some()).collect();
+        assert!(refused.is_empty(), "seed {seed}: refused {refused:?}");
+        let within = |t: f64| c.iter().filter(|c| c.gain_error() <= t).count();
+        assert!(within(0.10) >= 190, "seed {seed}: {}", within(0.10));
+        assert_eq!(within(0.25), 200, "seed {seed}");
+        assert!(c.iter().all(|c| c.samples <= 330), "seed {seed}");
+        assert!(c.iter().all(|c| c.travel_quanta <= 200.0), "seed {seed}");
+        let coulomb: Vec<_> = c.iter().filter(|c| c.true_coulomb_fs >= 0.005).collect();
+        let good = coulomb.iter().filter(|c| c.coulomb_error() <= 0.25).count();
+        assert!(
+            good * 10 >= coulomb.len() * 9,
+            "seed {seed}: {good} of {}",
+            coulomb.len()
+        );
+    }
+}
+
+/// The `f32` fit against its float64 reference on every record of family seed 1: the pole, the
+/// gain b and the Coulomb level. Trips on a fit whose golden section stops at the grid, whose
+/// elimination loses precision (an f32 residual by the normal equations' cancellation measured
+/// 5 % on b) or whose model differs from the reference's.
+#[test]
+fn the_fit_matches_float64() {
+    let c = family(&FamilyOptions {
+        plants: 200,
+        seed: 1,
+        ..FamilyOptions::default()
+    })
+    .expect("the family calibrates");
+    let (mut worst_a, mut worst_b, mut worst_c) = (0.0f64, 0.0f64, 0.0f64);
+    for check in &c {
+        let out = check.outcome.as_ref().expect("outcome");
+        let m = out.model.expect("calibrated");
+        let r = fit_f64(&out.record).expect("the reference fits");
+        worst_a = worst_a.max((f64::from(m.a) - r.a).abs());
+        worst_b = worst_b.max((f64::from(m.b()) / r.b() - 1.0).abs());
+        let cr = 0.5 * (r.coulomb_fs[0] + r.coulomb_fs[1]);
+        worst_c = worst_c.max((f64::from(m.coulomb_mean_fs()) - cr.max(0.0)).abs());
+    }
+    println!("f32 − f64: a {worst_a:.2e}, b (relative) {worst_b:.2e}, u_c {worst_c:.2e} FS");
+    // Measured 5.1·10⁻⁴, 5.5·10⁻⁴, 1.5·10⁻⁵: bounded at twice that.
+    assert!(worst_a <= 1e-3, "a {worst_a}");
+    assert!(worst_b <= 1.1e-3, "b {worst_b}");
+    assert!(worst_c <= 3e-5, "u_c {worst_c}");
+}
+
+/// The servo with calibration on `plant`, its drive passed through `wrap` (a reversed drive or
+/// sensor), run for `samples` samples fed its own reading as the reference.
+fn run_faulty(
+    plant: PlantParams,
+    samples: usize,
+    reverse_drive: bool,
+    reverse_sensor: bool,
+) -> (ScheduledLoop, Vec<(f64, Option<StopReason>)>) {
+    let params = TwinParams {
+        plant,
+        ..TwinParams::default()
+    };
+    let d = seek_design(design_from_prior(&params, &PlantParams::default()).unwrap());
+    let mut servo = ScheduledLoop::new(&d, &identifier_design(&d))
+        .unwrap()
+        .with_calibration(Some(CalibrationDesign::default()))
+        .unwrap();
+    let mut twin = Twin::new(params, 3).unwrap();
+    let mut log = Vec::new();
+    let mut wrapped = |r: f64, y: f64| {
+        let y = if reverse_sensor { -y } else { y };
+        let u = servo.step(y, y);
+        log.push((u, servo.state.safe_stop()));
+        if reverse_drive { -u } else { u }
+    };
+    twin.pre_roll(&mut wrapped, |_| false, samples);
+    (servo, log)
+}
+
+/// A sled that does not respond like one ends calibration stopped, with the drive cut, and never
+/// starts seeking: a stuck sled (static friction beyond the rail), a reversed drive, a reversed
+/// sensor, a sled whose gain is 1/400 of the prior's (outside the family's range × 4). Each stop
+/// says why; a reset runs calibration again, which refuses again. Trips on a refusal that is not
+/// latched (the drive comes back), a check that is missing (the sled is calibrated and seeks) or
+/// a reset that skips calibration.
+#[test]
+fn calibration_refuses_what_is_not_a_sled() {
+    let nominal = PlantParams::default();
+    let cases: [(&str, PlantParams, bool, bool, &[StopReason]); 5] = [
+        (
+            "stuck",
+            PlantParams {
+                static_n: 100.0,
+                ..nominal.clone()
+            },
+            false,
+            false,
+            &[StopReason::Calibration(Refusal::Stuck), StopReason::Stall],
+        ),
+        (
+            "reversed drive",
+            nominal.clone(),
+            true,
+            false,
+            &[
+                StopReason::Calibration(Refusal::Reversed),
+                StopReason::Runaway,
+            ],
+        ),
+        (
+            "reversed sensor",
+            nominal.clone(),
+            false,
+            true,
+            &[
+                StopReason::Calibration(Refusal::Reversed),
+                StopReason::Runaway,
+            ],
+        ),
+        (
+            "gain / 400",
+            PlantParams {
+                mass_kg: nominal.mass_kg * 400.0,
+                viscous_n_s_per_m: nominal.viscous_n_s_per_m * 0.01,
+                ..nominal.clone()
+            },
+            false,
+            false,
+            // Too slow to move 2 quanta within the breakaway search's levels: stuck.
+            &[
+                StopReason::Calibration(Refusal::Gain),
+                StopReason::Calibration(Refusal::Stuck),
+            ],
+        ),
+        (
+            "gain × 50",
+            PlantParams {
+                quantum_m: nominal.quantum_m / 50.0,
+                ..nominal.clone()
+            },
+            false,
+            false,
+            // Its 40-quanta pushes coast past the experiment's travel first (measured: at 243).
+            &[
+                StopReason::Calibration(Refusal::Gain),
+                StopReason::Calibration(Refusal::Travel),
+            ],
+        ),
+    ];
+    for (name, plant, rev_drive, rev_sensor, expected) in cases {
+        let (mut servo, log) = run_faulty(plant.clone(), 2000, rev_drive, rev_sensor);
+        let stop = servo.state.safe_stop();
+        println!(
+            "{name}: stop {stop:?} at sample {:?}",
+            log.iter().position(|l| l.1.is_some())
+        );
+        assert!(
+            stop.is_some_and(|s| expected.contains(&s)),
+            "{name}: {stop:?}"
+        );
+        assert!(!servo.state.calibration().is_done(), "{name}");
+        let at = log.iter().position(|l| l.1.is_some()).expect("stopped");
+        assert!(at <= 400, "{name}: stopped at {at}");
+        assert!(
+            log[at..].iter().all(|l| l.0 == 0.0),
+            "{name}: drive after the stop"
+        );
+        // A reset runs calibration again from where the sled is, into the same refusal.
+        servo.config.reset_safe_stop(&mut servo.state);
+        assert!(servo.state.safe_stop().is_none());
+        assert!(servo.state.calibration().is_running(), "{name}");
+        let out = servo.config.step(
+            &mut servo.state,
+            PositionI48F16::default(),
+            PositionI48F16::default(),
+        );
+        assert!(out.servo.contains(ServoFlags::CALIBRATING), "{name}");
+    }
+}
