@@ -124,8 +124,9 @@ fn the_fit_matches_float64() {
     assert!(worst_c <= 3e-5, "u_c {worst_c}");
 }
 
-/// The servo with calibration on `plant`, its drive passed through `wrap` (a reversed drive or
-/// sensor), run for `samples` samples fed its own reading as the reference.
+/// The servo with calibration on `plant`, its drive (`reverse_drive`) or its reading
+/// (`reverse_sensor`) reversed, run for `samples` samples fed its own reading as the reference:
+/// per sample the drive (V) and the latched stop.
 fn run_faulty(
     plant: PlantParams,
     samples: usize,
@@ -143,7 +144,7 @@ fn run_faulty(
         .unwrap();
     let mut twin = Twin::new(params, 3).unwrap();
     let mut log = Vec::new();
-    let mut wrapped = |r: f64, y: f64| {
+    let mut wrapped = |_r: f64, y: f64| {
         let y = if reverse_sensor { -y } else { y };
         let u = servo.step(y, y);
         log.push((u, servo.state.safe_stop()));
