@@ -23,3 +23,42 @@ fn a_closed_pipe_ends_the_command_quietly() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The README's main job, `sledid demo`, as a newcomer runs it: it succeeds and ends with the
+/// product — the servo calibrated at power-on (a model, not a refusal, within the experiment's
+/// budget) and every one of its seek commands settled, no safe stop, the figure written. Trips
+/// on a demo that stops before the servo, a calibration that is refused or not adopted on the
+/// nominal sled, or seeks that do not settle.
+#[test]
+fn the_demo_ends_with_the_calibrated_servo() {
+    let dir = std::env::temp_dir().join(format!("sledid-cli-demo-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
+        .args(["demo", "--out"])
+        .arg(&dir)
+        .output()
+        .expect("sledid demo runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("calibration: "), "{stdout}");
+    let text = std::fs::read_to_string(dir.join("seek/summary.json")).expect("seek summary");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let s = &json["summary"];
+    let cal = &s["calibration"];
+    assert!(cal["refusal"].is_null(), "{cal}");
+    assert!(cal["samples"].as_u64().is_some_and(|n| n <= 330), "{cal}");
+    assert!(
+        cal["b"]
+            .as_f64()
+            .is_some_and(|b| (b / 23.62 - 1.0).abs() < 0.1),
+        "{cal}"
+    );
+    assert_eq!(s["seeks"], 40);
+    assert_eq!(s["unsettled"], 0, "{s}");
+    assert!(s["safe_stop"].is_null(), "{s}");
+    assert!(dir.join("seek/seek_vs_distance.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -116,18 +116,20 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
 }
 
 /// The product setting: every servo designed from the nominal prior, calibrated at power-on
-/// (`sledid::servo::calibration`) and holding the calibrated model
-/// (`control-family --passes seek --calibrate`). Measured seeds 1 / 7 (2): access / bound median
-/// 1.25 / 1.23 (1.23), p95 2.50 / 2.50 (2.50), ≥ 200 tracks 1.13 / 1.12 (1.12), clean 97.0 /
-/// 98.5 % (96.0 %), unsettled 13 / 6 (14), pulses 0 / 0 (1), safe stops 0 / 0 (0) — against the
-/// on-line servo without calibration's 3.50 / 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops
-/// (`seeks_on_the_plant_family`). The p95 and the stops meet the targets (≤ 2.5, none)
-/// and are asserted at them; clean misses 99 % (high-friction sleds, stiction ≥ 2.5× Coulomb,
-/// and heavy near-frictionless ones lose 1–6 seeks in their settle) and is asserted at the
-/// seeds' spread below the measured (0.95). Trips on a calibration that is not adopted (p95
-/// and stops of the uncalibrated servo), calibration samples counted as access time (every
-/// first seek's ratio), or a hold that lets the biased on-line estimate back in (p95 3.2–5.3,
-/// measured).
+/// (`sledid::servo::calibration`), holding the calibrated model and seeking on it at the
+/// calibrated α 0.7, p 0.15 (`control-family --passes seek --calibrate`). Measured seeds 1 / 7
+/// (2): access / bound median 1.09 / 1.08 (1.08), p95 2.00 / 1.75 (2.00), ≥ 200 tracks 1.07 /
+/// 1.06 (1.06), clean 98.0 / 97.0 % (98.0 %), unsettled 4 / 9 (4), pulses 0 / 2 (1), safe
+/// stops 0 / 0 (0) — against the on-line servo without calibration's 1.25 / 1.20 median, 3.50 /
+/// 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops (`seeks_on_the_plant_family`). The median, p95
+/// and stops meet the targets and are asserted at them, the median also at 1.15 (the
+/// identified settings α 0.6, p 0.3 on the same calibrated model measured 1.25 / 1.23); clean
+/// misses 99 % (high-friction sleds, stiction ≥ 2.5× Coulomb, and heavy near-frictionless ones
+/// lose 1–4 seeks in their settle) and is asserted at 0.95, unsettled at 15, the spread of the
+/// seeds and of the calibrated settings tried (96.0–98.5 %, 4–13). Trips on a calibration that is
+/// not adopted (p95 and stops of the uncalibrated servo), calibration samples counted as access
+/// time (every first seek's ratio), a hold that lets the biased on-line estimate back in (p95
+/// 3.2–5.3, measured) or the identified settings on a calibrated model (median).
 #[test]
 fn calibrated_seeks_on_the_plant_family() {
     for seed in [1, 7] {
@@ -149,11 +151,11 @@ fn calibrated_seeks_on_the_plant_family() {
             "seed {seed}: {:.2} % of seeks within 2.5× the bound",
             100.0 * at_most
         );
-        assert!(s.ratio.median <= 1.5, "seed {seed}: {s:?}");
+        assert!(s.ratio.median <= 1.15, "seed {seed}: {s:?}");
         assert!(s.ratio_long_median <= 1.3, "seed {seed}: {s:?}");
         assert!(s.ratio.p95 <= 2.5, "seed {seed}: {s:?}");
         assert_eq!(s.safe_stops, 0, "seed {seed}: {s:?}");
         assert!(s.clean >= 0.95, "seed {seed}: {s:?}");
-        assert!(s.unsettled <= 20, "seed {seed}: {s:?}");
+        assert!(s.unsettled <= 15, "seed {seed}: {s:?}");
     }
 }

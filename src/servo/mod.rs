@@ -394,11 +394,11 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 272 (3 of framing, the
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 276 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings, safety
 /// layer and power-on calibration, the controller with both maps and time-optimal seeks;
 /// `host-tests/tests/sled_loop.rs` counts them).
-pub const SERVO_WORDS_MAX: usize = 272;
+pub const SERVO_WORDS_MAX: usize = 276;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, with the servo's own
@@ -510,7 +510,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         Some(design)
     }
 
-    /// The background's work on calibration's record: the fit ([`calibration::fit`]), θ, and the
+    /// The background's work on calibration's record: the fit ([`calibration::fit()`]), θ, and the
     /// controller's design placed from it (a model the controller refuses is refused as
     /// [`Refusal::Gain`]). Outside the sample interrupt.
     pub fn calibrate(&self, record: &CalibrationRecord) -> Calibrated<C::Design> {

@@ -32,9 +32,10 @@ pub struct Args {
     /// exact`, the seek law alone on each plant's exact model).
     #[arg(long)]
     pub frozen: bool,
-    /// The seek pass's seek mode calibrates at power-on before its first seek.
+    /// The seek pass's seek mode does not calibrate at power-on (it calibrates by default, except
+    /// with `--prior exact`): it starts seeking on the prior and identifies on-line.
     #[arg(long)]
-    pub calibrate: bool,
+    pub no_calibrate: bool,
     /// Which evaluations: the settling comparison of four controllers (issue 13), the seek
     /// evaluation (issue 14: access time over the plant's minimum-time bound, seek mode and
     /// reference-following servo), or both.
@@ -82,7 +83,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         prior,
         exact_prior,
         frozen: a.frozen,
-        calibrate: a.calibrate,
+        calibrate: !a.no_calibrate && !exact_prior,
         ..FamilyOptions::default()
     };
     let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;

@@ -1,7 +1,8 @@
 //! `sledid demo` (the README's first command): generates a sled-twin recording, replays it sample
 //! by sample through the library's per-sample `step` (the function the firmware's timer interrupt
 //! calls), runs the float64 reference beside it, writes a trace and a summary, and runs the
-//! paper's study on the same twin.
+//! paper's study on the same twin; then the product on the same sled: power-on calibration and
+//! seek commands in the seek mode, access time against the minimum-time bound.
 
 use sledid::ident::conditioning::Conditioning;
 use sledid::ident::linear::{LinearDesign, Structure};
@@ -9,9 +10,13 @@ use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid::ident::step::{IdentifierDesign, step};
 use sledid::{Scaling, Status};
 use sledid_host::compare::relative_distance;
+use sledid_host::control::seek::{
+    SeekController, SeekOptions, bound_curve, run_seeks, seek_design,
+};
+use sledid_host::control::{design_from_prior, plot};
 use sledid_host::reference::batch::{rms_error, simulate};
 use sledid_host::reference::linear::LinearF64;
-use sledid_host::twin::{Twin, TwinParams};
+use sledid_host::twin::{PlantParams, Twin, TwinParams};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -194,5 +199,53 @@ fn demo(seed: u64, plant: Option<&std::path::Path>, out: &PathBuf) -> Result<(),
     }
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     println!("plots: {}", names.join(", "));
+    product_seeks(&params, seed, &out.join("seek"))
+}
+
+/// The product on the same sled: the servo designed from the nominal prior calibrates at power-on
+/// (`sledid::servo::calibration`), then runs [`PRODUCT_SEEKS`] seek commands in its seek mode;
+/// access time against the sled's minimum-time bound, one figure (`seek/seek_vs_distance.png`)
+/// and `seek/summary.json`.
+fn product_seeks(params: &TwinParams, seed: u64, out: &std::path::Path) -> Result<(), String> {
+    let schedule = SeekOptions {
+        seeks: PRODUCT_SEEKS,
+        seed,
+        calibrate: true,
+        ..SeekOptions::default()
+    };
+    let design = design_from_prior(params, &PlantParams::default())?;
+    let run = run_seeks(
+        params,
+        &SeekController::Seek(seek_design(design)),
+        &schedule,
+    )?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let json = serde_json::to_string_pretty(&serde_json::json!({
+        "summary": run.summary,
+        "seeks": run.rows,
+    }))
+    .map_err(|e| e.to_string())?;
+    std::fs::write(out.join("summary.json"), json + "\n").map_err(|e| e.to_string())?;
+    let curve = bound_curve(&params.plant, schedule.min_tracks, schedule.max_tracks);
+    let figure = out.join("seek_vs_distance.png");
+    plot::plot_seek_distance(
+        &[(run.controller.label(), run.rows.as_slice())],
+        &curve,
+        &format!(
+            "calibrated at power-on, then {PRODUCT_SEEKS} seeks of {}–{} tracks, seed {seed}",
+            schedule.min_tracks, schedule.max_tracks
+        ),
+        &figure,
+    )?;
+    println!();
+    println!("the servo (seek mode, designed from the nominal prior):");
+    if let Some(c) = &run.run.calibration {
+        println!("{}", c.line(params.plant.ts_s));
+    }
+    println!("{}", run.summary.line());
+    println!("plot: {}", figure.display());
     Ok(())
 }
+
+/// Seek commands of the demo's product run.
+pub const PRODUCT_SEEKS: u32 = 40;

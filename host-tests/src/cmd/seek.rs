@@ -64,9 +64,11 @@ pub struct Args {
     /// seek law alone on the exact model).
     #[arg(long, value_enum, default_value = "online")]
     pub identification: IdentificationArg,
-    /// The seek mode calibrates at power-on before its first seek (`sledid::servo::calibration`).
+    /// The seek mode does not calibrate at power-on (`sledid::servo::calibration`; it calibrates
+    /// by default, except with `--prior exact`): it starts seeking on the prior and identifies
+    /// on-line.
     #[arg(long)]
-    pub calibrate: bool,
+    pub no_calibrate: bool,
     /// Output directory: summary.json, seek_vs_distance.png, seek_steps.png.
     #[arg(long)]
     pub out: PathBuf,
@@ -137,7 +139,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         seed: a.seed,
         dwell_s: a.dwell_ms * 1e-3,
         frozen: a.identification == IdentificationArg::Frozen,
-        calibrate: a.calibrate,
+        calibrate: !a.no_calibrate && !exact_prior,
     };
     let design = design_from_prior(&params, &prior.plant)?;
     let under_test = match a.controller {
@@ -192,35 +194,12 @@ pub fn run(a: &Args) -> Result<(), String> {
         &a.out.join("seek_vs_distance.png"),
     )?;
     plot::plot_seek_steps(&runs, &picks(&tested), &a.out.join("seek_steps.png"))?;
-    let line = |s: &SeekSummary| {
-        format!(
-            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}",
-            s.controller,
-            s.access_ms.median,
-            s.access_ms.p95,
-            s.access_ms.max,
-            s.ratio.median,
-            s.ratio.p95,
-            s.ratio.max,
-            s.ratio_long_median,
-            s.overshoot_quanta.max,
-            s.limit_cycle_pulses,
-            s.unsettled
-        )
-    };
-    let stop = |s: &SeekSummary| match &s.safe_stop {
-        Some(st) => format!(
-            "; SAFE STOP ({}) at sample {}, seek {}, reading {} quanta",
-            st.reason, st.sample, st.seek, st.position_quanta
-        ),
-        None => String::new(),
-    };
     if let Some(c) = &tested.run.calibration {
         println!("{}", c.line(params.plant.ts_s));
     }
-    println!("{}{}", line(&tested.summary), stop(&tested.summary));
+    println!("{}", tested.summary.line());
     if let Some(r) = &reference {
-        println!("{}{}", line(&r.summary), stop(&r.summary));
+        println!("{}", r.summary.line());
     }
     println!("→ {}", a.out.display());
     Ok(())

@@ -454,6 +454,9 @@ pub enum RedesignJob {
         theta: [ParamI12F20; MAX_MODEL_PARAMS],
         /// Entries of θ in use.
         len: u8,
+        /// θ was measured by power-on calibration (the seek plan's calibrated α and p), not
+        /// identified on-line.
+        calibrated: bool,
     },
 }
 
@@ -899,6 +902,19 @@ impl ScheduledConfig {
     }
 }
 
+/// The job placing gains from `theta` (zero-padded), `calibrated` or identified on-line.
+fn place(theta: &[ParamI12F20], calibrated: bool) -> RedesignJob {
+    let mut copy = [ParamI12F20::ZERO; MAX_MODEL_PARAMS];
+    for (c, t) in copy.iter_mut().zip(theta) {
+        *c = *t;
+    }
+    RedesignJob::Place {
+        theta: copy,
+        len: theta.len().min(MAX_MODEL_PARAMS) as u8, // ≤ 4
+        calibrated,
+    }
+}
+
 /// h(u) of the compensation map in use (the identity without one), I16F16 raw.
 fn forward(state: &ScheduledState, u: i32) -> i32 {
     state.compensation.as_ref().map_or(u, |m| m.forward(u))
@@ -936,18 +952,11 @@ impl Controller for ScheduledConfig {
             return Some(RedesignJob::Skip);
         }
         state.trusted_updates = 0;
-        Some(self.place_job(theta))
+        Some(place(theta, false))
     }
 
     fn place_job(&self, theta: &[ParamI12F20]) -> RedesignJob {
-        let mut copy = [ParamI12F20::ZERO; MAX_MODEL_PARAMS];
-        for (c, t) in copy.iter_mut().zip(theta) {
-            *c = *t;
-        }
-        RedesignJob::Place {
-            theta: copy,
-            len: theta.len().min(MAX_MODEL_PARAMS) as u8, // ≤ 4
-        }
+        place(theta, true)
     }
 
     fn placed(design: &RedesignResult) -> bool {
@@ -967,7 +976,11 @@ impl Controller for ScheduledConfig {
                     compensation: None,
                 };
             }
-            RedesignJob::Place { theta, len } => {
+            RedesignJob::Place {
+                theta,
+                len,
+                calibrated,
+            } => {
                 let (linear, c) = self.split_theta(theta.get(..usize::from(*len)).unwrap_or(&[]));
                 super::placement::reduce(linear, self.na, &self.supervisor).and_then(|mut m| {
                     let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
@@ -982,8 +995,13 @@ impl Controller for ScheduledConfig {
                         } else {
                             compensation_level(self.compensation.as_ref())
                         };
+                        let (alpha, pole) = if *calibrated {
+                            (d.alpha_calibrated, d.velocity_pole_calibrated)
+                        } else {
+                            (d.alpha, d.velocity_pole)
+                        };
                         g.seek = self
-                            .seek_plan(m, u_c, d.alpha, d.velocity_pole)
+                            .seek_plan(m, u_c, alpha, pole)
                             .ok_or(Rejection::GainFormat)?;
                     }
                     Ok((m, g))

@@ -16,10 +16,10 @@
 //!           at U₀ is pushed harder the second time)
 //! ```
 //! The record (four pushes, ≤ [`SEGMENT_LEN`] readings each) goes to the background through a
-//! hand-over like a redesign's; [`fit`] returns the velocity model, and the servo adopts it at the
+//! hand-over like a redesign's; [`fit()`] returns the velocity model, and the servo adopts it at the
 //! due sample: θ seeds the identifier, the controller's first design is placed from it.
 //!
-//! # The fit ([`fit`], f32 in the background; float64 reference in `host-tests`)
+//! # The fit ([`mod@fit`], f32 in the background; float64 reference in `host-tests`)
 //! Per sample, the velocity v (quanta per sample) of a first-order sled with ZOH drive u and
 //! Coulomb level u_c(d) (the continuous model sampled exactly; a = e^{−λ}):
 //! ```text

@@ -245,6 +245,30 @@ impl SafeStop {
 }
 
 impl SeekSummary {
+    /// One line: access time, access / bound, overshoot, pulses, unsettled seeks and the stop.
+    pub fn line(&self) -> String {
+        let stop = self.safe_stop.map_or(String::new(), |st| {
+            format!(
+                "; SAFE STOP ({}) at sample {}, seek {}, reading {} quanta",
+                st.reason, st.sample, st.seek, st.position_quanta
+            )
+        });
+        format!(
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}{stop}",
+            self.controller,
+            self.access_ms.median,
+            self.access_ms.p95,
+            self.access_ms.max,
+            self.ratio.median,
+            self.ratio.p95,
+            self.ratio.max,
+            self.ratio_long_median,
+            self.overshoot_quanta.max,
+            self.limit_cycle_pulses,
+            self.unsettled
+        )
+    }
+
     /// The statistics of `rows`.
     pub fn of(controller: &'static str, rows: &[SeekRow], dwell_s: f64) -> Self {
         let pick =
