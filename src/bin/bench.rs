@@ -354,7 +354,11 @@ impl ScheduledBench {
         theta[1] = b;
         // c = b·u_c with u_c ≈ 0.0075 full scale: the redesign builds the friction map too.
         theta[2] = ParamI12F20::from_raw(195_000 + (i % 64) as i32 * 100);
-        let job = sledid::control::scheduled::RedesignJob::Place { theta, len: 3 };
+        let job = sledid::control::scheduled::RedesignJob::Place {
+            theta,
+            len: 3,
+            calibrated: false,
+        };
         let design = Controller::redesign(&self.config, &job);
         Controller::adopt(&self.config, &mut self.state, &design);
         acc ^ u32::from(matches!(
