@@ -36,6 +36,10 @@ pub struct Args {
     /// with `--prior exact`): it starts seeking on the prior and identifies on-line.
     #[arg(long)]
     pub no_calibrate: bool,
+    /// The wider family: every range doubled at both ends on a log scale
+    /// (`FamilyRanges::wide`).
+    #[arg(long)]
+    pub wide: bool,
     /// Which evaluations: the settling comparison of four controllers (issue 13), the seek
     /// evaluation (issue 14: access time over the plant's minimum-time bound, seek mode and
     /// reference-following servo), or both.
@@ -84,6 +88,11 @@ pub fn run(a: &Args) -> Result<(), String> {
         exact_prior,
         frozen: a.frozen,
         calibrate: !a.no_calibrate && !exact_prior,
+        ranges: if a.wide {
+            sledid_host::control::family::FamilyRanges::wide()
+        } else {
+            sledid_host::control::family::FamilyRanges::default()
+        },
         ..FamilyOptions::default()
     };
     let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;

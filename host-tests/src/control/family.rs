@@ -77,6 +77,22 @@ impl Default for FamilyRanges {
 }
 
 impl FamilyRanges {
+    /// The wider family of issue 22: every range doubled at both ends on a log scale (mass
+    /// 0.25–12, viscous 0.25–50, force 0.25–5, quantum 0.25–4 ×), Coulomb friction 0–4 ×,
+    /// stiction 1.2–6 × Coulomb, noise 0–0.2 quantum — where the servo is not expected to work,
+    /// only to say so (a refusal or a stop, never an unflagged failure).
+    pub fn wide() -> Self {
+        Self {
+            mass: (0.25, 12.0),
+            viscous: (0.25, 50.0),
+            force: (0.25, 5.0),
+            coulomb: (0.0, 4.0),
+            stiction_ratio: (1.2, 6.0),
+            quantum: (0.25, 4.0),
+            noise_quanta: (0.0, 0.2),
+        }
+    }
+
     /// The factors of plant `index` of the family of `seed`.
     pub fn draw(&self, seed: u64, index: u64) -> PlantFactors {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);

@@ -95,8 +95,10 @@ pub struct SeekFamilyStats {
     pub unsettled: usize,
     /// Limit-cycle pulses, all plants.
     pub limit_cycle_pulses: usize,
-    /// Plants whose safety layer latched a stop.
+    /// Plants whose safety layer latched a stop (calibration's refusals included).
     pub safe_stops: usize,
+    /// Plants with unsettled seeks or pulses and no stop: failures nothing flagged.
+    pub unflagged_failures: usize,
 }
 
 impl SeekFamilyStats {
@@ -119,7 +121,10 @@ impl SeekFamilyStats {
             clean: briefs.clone().filter(|b| b.clean()).count() as f64 / n.max(1) as f64,
             unsettled: briefs.clone().map(|b| b.unsettled).sum(),
             limit_cycle_pulses: briefs.clone().map(|b| b.limit_cycle_pulses).sum(),
-            safe_stops: briefs.filter(|b| b.safe_stop.is_some()).count(),
+            safe_stops: briefs.clone().filter(|b| b.safe_stop.is_some()).count(),
+            unflagged_failures: briefs
+                .filter(|b| !b.clean() && b.safe_stop.is_none())
+                .count(),
         }
     }
 }
@@ -266,7 +271,7 @@ pub fn evaluate(
 pub fn stats_table(r: &SeekFamilyReport) -> String {
     let row = |name: &str, s: &SeekFamilyStats, n: &SeekSummary| {
         format!(
-            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} | {} | {} | {:.1} |\n",
+            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} | {} | {} | {} | {:.1} |\n",
             s.ratio.median,
             s.ratio.p95,
             s.ratio_long_median,
@@ -274,11 +279,12 @@ pub fn stats_table(r: &SeekFamilyReport) -> String {
             s.unsettled,
             s.limit_cycle_pulses,
             s.safe_stops,
+            s.unflagged_failures,
             n.access_ms.median
         )
     };
     format!(
-        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
+        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | failing plants without a stop | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
         row("seek mode (time-optimal seeks)", &r.seek, &r.nominal.seek),
         row(
             "reference-following (30 ms S-curve)",
