@@ -253,6 +253,12 @@ pub struct ServoState<C: Controller, I: Identifier> {
     fit: Handover<CalibrationRecord, Calibrated<C::Design>>,
     /// What calibration found, once adopted.
     calibrated: Option<CalibratedModel>,
+    /// Calibrations adopted since power-on.
+    calibrations: u32,
+    /// When to calibrate again.
+    watch: calibration::CalibrationWatch,
+    /// The command in progress when a re-calibration started, I48F16 raw.
+    watch_r: i64,
 }
 
 /// What the servo itself did in one sample (beside the controller's [`ControlFlags`]).
@@ -473,6 +479,9 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             calibration: self.fresh_calibration(),
             fit: Handover::new(),
             calibrated: None,
+            calibrations: 0,
+            watch: calibration::CalibrationWatch::default(),
+            watch_r: 0,
         }
     }
 
@@ -611,6 +620,15 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             }
             HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
         }
+        if let Some(cal) = &self.calibration
+            && state.watch.step(r.raw(), y.raw())
+        {
+            // The sled no longer follows the calibrated model: calibrate again from here.
+            state.calibration = CalibrationState::new();
+            state.fit = Handover::new();
+            state.watch_r = r.raw();
+            return self.calibration_step(cal, state, measured, u_applied);
+        }
         let input = ControlInput { r, y, report };
         let mut out = self.controller.step(&mut state.controller, &input);
         let falling_back = out.flags.contains(ControlFlags::FALLBACK);
@@ -684,7 +702,14 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 state.controller = self.controller.new_state();
                 self.controller.adopt(&mut state.controller, &design);
                 state.calibration.finish();
+                state.watch = if state.calibrations == 0 {
+                    calibration::CalibrationWatch::arm(&model)
+                } else {
+                    // Re-calibrated: the command in progress is not re-calibrated again.
+                    calibration::CalibrationWatch::rearm_spent(&model, state.watch_r)
+                };
                 state.calibrated = Some(model);
+                state.calibrations = state.calibrations.saturating_add(1);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);
             }
             HandoverEvent::Adopt(Calibrated::Refused(r)) => {
@@ -798,6 +823,11 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
         &self.calibration
     }
 
+    /// Calibrations adopted since power-on (power-on's and every re-calibration).
+    pub fn calibrations(&self) -> u32 {
+        self.calibrations
+    }
+
     /// What calibration found, once adopted.
     pub fn calibrated(&self) -> Option<&CalibratedModel> {
         self.calibrated.as_ref()
@@ -834,6 +864,9 @@ where
             calibration: self.calibration,
             fit: self.fit,
             calibrated: self.calibrated,
+            calibrations: self.calibrations,
+            watch: self.watch,
+            watch_r: self.watch_r,
         }
     }
 }

@@ -42,6 +42,7 @@
 
 pub mod experiment;
 pub mod fit;
+pub mod watch;
 
 use crate::error::ConfigError;
 use crate::num::fixed::SignalI16F16;
@@ -49,6 +50,7 @@ use crate::words::{WordReader, WordWriter, Words};
 
 pub use experiment::{CalibrationRecord, CalibrationState, SEGMENT_LEN, SEGMENTS, Segment};
 pub use fit::{CalibratedModel, fit};
+pub use watch::CalibrationWatch;
 
 /// Why calibration refused the sled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
