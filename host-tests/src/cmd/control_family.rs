@@ -40,10 +40,11 @@ pub struct Args {
     /// (`FamilyRanges::wide`).
     #[arg(long)]
     pub wide: bool,
-    /// Which evaluations: the settling comparison of four controllers (issue 13), the seek
-    /// evaluation (issue 14: access time over the plant's minimum-time bound, seek mode and
-    /// reference-following servo), or both.
-    #[arg(long, value_enum, default_value = "settling")]
+    /// Which evaluations: the seek evaluation (the default: access time over the plant's
+    /// minimum-time bound, the product's seek mode — calibrated at power-on — beside the
+    /// reference-following servo), the settling comparison of four reference-following
+    /// controllers (issue 13), or both.
+    #[arg(long, value_enum, default_value = "seek")]
     pub passes: Passes,
     /// Seek distances MIN:MAX, tracks, of the seek evaluation (log-uniform).
     #[arg(long, default_value = "20:2000")]
