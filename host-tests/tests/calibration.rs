@@ -421,3 +421,50 @@ fn a_command_during_calibration_waits_for_it() {
     // Then the command is followed: after calibration the sled went to it.
     assert!((end - 500.0).abs() <= 1.5, "{end}");
 }
+
+/// `sledid seek --inject`'s faults through the product's run (`run_seeks_with_faults`, nominal
+/// sled, 30 seeks, seed 1, the fault at sample 5,000 of the schedule, in a dwell): a reversed
+/// sensor stops the servo for a runaway 16 samples later; a reversed drive (runaway) and a stuck
+/// sensor (stall) 288 and 303 samples later — at the next command, the dwell's drive being too
+/// small to show them; a lighter sled (mass × 0.4) is calibrated again and settles every seek.
+/// Bounded at 50 / 400 / 400 samples. The summary carries the stop's reason and sample and the
+/// re-calibrations. Trips on faults that are parsed but not applied (no stop, no
+/// re-calibration), on a stop sample counted from power-on instead of the schedule, or on a
+/// summary that loses the stop.
+#[test]
+fn injected_faults_show_in_the_summary() {
+    use sledid_host::control::inject::ServoFault;
+    use sledid_host::control::seek::run::run_seeks_with_faults;
+    use sledid_host::control::seek::{SeekController, SeekOptions};
+    let params = TwinParams::default();
+    let design = seek_design(design_from_prior(&params, &PlantParams::default()).unwrap());
+    let schedule = SeekOptions {
+        seeks: 30,
+        calibrate: true,
+        ..SeekOptions::default()
+    };
+    let run = |spec: &str| {
+        let fault: ServoFault = spec.parse().unwrap();
+        let r = run_seeks_with_faults(&params, &SeekController::Seek(design), &schedule, &[fault])
+            .unwrap();
+        println!("{spec}: {}", r.summary.line());
+        r.summary
+    };
+    for (spec, reason, within) in [
+        ("flip:from=5000", "runaway", 50),
+        ("drive-flip:from=5000", "runaway", 400),
+        ("stuck:from=5000,len=1000000", "stall", 400),
+    ] {
+        let s = run(spec);
+        let stop = s.safe_stop.expect("stopped");
+        assert_eq!(stop.reason, reason, "{spec}");
+        assert!(
+            (5000..=5000 + within).contains(&stop.sample),
+            "{spec}: {stop:?}"
+        );
+    }
+    let s = run("mass:at=5000,factor=0.4");
+    assert!(s.safe_stop.is_none());
+    assert!(s.calibrations >= 2, "{s:?}");
+    assert_eq!(s.unsettled, 0);
+}

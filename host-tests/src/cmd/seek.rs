@@ -4,8 +4,10 @@
 //! step responses.
 
 use serde::Serialize;
+use sledid_host::control::inject::ServoFault;
+use sledid_host::control::seek::run::run_seeks_with_faults;
 use sledid_host::control::seek::{
-    SeekController, SeekOptions, SeekRow, SeekRun, SeekSummary, bound_curve, run_seeks, seek_design,
+    SeekController, SeekOptions, SeekRow, SeekRun, SeekSummary, bound_curve, seek_design,
 };
 use sledid_host::control::{design_from_prior, plot};
 use sledid_host::twin::{PlantParams, TwinParams};
@@ -69,6 +71,13 @@ pub struct Args {
     /// on-line.
     #[arg(long)]
     pub no_calibrate: bool,
+    /// A fault injected into the servo's loop, repeatable: the replay's sensor faults (`spike`,
+    /// `stuck`, `missing`, `nan`, `flip`), `drive-flip:from=K`, `mass:at=K,factor=F`,
+    /// `friction:at=K,factor=F` (K counts from the first seek, after calibration; e.g.
+    /// `--inject mass:at=10000,factor=0.4`). The summary line says what the servo did: the stop
+    /// (reason, sample, seek, reading) or the re-calibrations.
+    #[arg(long)]
+    pub inject: Vec<String>,
     /// Output directory: summary.json, seek_vs_distance.png, seek_steps.png.
     #[arg(long)]
     pub out: PathBuf,
@@ -86,6 +95,8 @@ struct Part<'a> {
 struct Report<'a> {
     plant: &'a PlantParams,
     prior: &'a PlantParams,
+    /// The `--inject` faults, as given.
+    faults: &'a [String],
     schedule: &'a SeekOptions,
     /// The plant's bound from rest: (distance in tracks, ms).
     bound_curve: &'a [(f64, f64)],
@@ -150,19 +161,26 @@ pub fn run(a: &Args) -> Result<(), String> {
         SeekControllerArg::Baseline => SeekController::Baseline,
         SeekControllerArg::Reference => SeekController::Reference(design),
     };
-    let tested = run_seeks(&params, &under_test, &schedule)?;
+    let faults: Vec<ServoFault> = a
+        .inject
+        .iter()
+        .map(|s| s.parse())
+        .collect::<Result<_, _>>()?;
+    let tested = run_seeks_with_faults(&params, &under_test, &schedule, &faults)?;
     let reference = match under_test {
         SeekController::Reference(_) => None,
-        _ => Some(run_seeks(
+        _ => Some(run_seeks_with_faults(
             &params,
             &SeekController::Reference(design),
             &schedule,
+            &faults,
         )?),
     };
     let curve = bound_curve(&params.plant, min_tracks, max_tracks);
     let report = Report {
         plant: &params.plant,
         prior: &prior.plant,
+        faults: &a.inject,
         schedule: &schedule,
         bound_curve: &curve,
         under_test: Part {

@@ -40,6 +40,7 @@ pub mod calibration;
 pub mod design;
 pub mod family;
 pub mod family_eval;
+pub mod inject;
 pub mod perturb;
 pub mod plot;
 pub mod run;

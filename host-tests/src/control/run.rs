@@ -124,11 +124,19 @@ impl ScheduledLoop {
 
 impl SledController for ScheduledLoop {
     fn step(&mut self, r_counts: f64, y_counts: f64) -> f64 {
-        let (r, y) = (
-            position_from_quanta(r_counts),
-            position_from_quanta(y_counts),
-        );
-        let out = self.config.step(&mut self.state, r, y);
+        super::inject::ReadingController::step_reading(self, r_counts, Some(y_counts))
+    }
+}
+
+impl super::inject::ReadingController for ScheduledLoop {
+    fn step_reading(&mut self, r_counts: f64, y_counts: Option<f64>) -> f64 {
+        let r = position_from_quanta(r_counts);
+        let out = match y_counts {
+            Some(y) => self
+                .config
+                .step(&mut self.state, r, position_from_quanta(y)),
+            None => self.config.step_lost(&mut self.state, r),
+        };
         // The background's turn between two samples (the hand-over adopts it at k + L).
         if let Some(design) = self.config.run_background(&mut self.state) {
             self.redesigns.push(design.outcome);
@@ -243,6 +251,8 @@ pub struct ControlRun {
     pub first_stop: Option<(usize, StopReason)>,
     /// Power-on calibration, when the servo calibrated.
     pub calibration: Option<CalibrationOutcome>,
+    /// Calibrations adopted over the run (power-on's and every re-calibration).
+    pub calibrations: u32,
 }
 
 impl ControlRun {
@@ -365,12 +375,29 @@ pub fn run_servo(
     options: ServoOptions,
     calibration: Option<CalibrationDesign>,
 ) -> Result<ControlRun, String> {
+    run_servo_with_faults(params, seed, seeks, design, options, calibration, &[])
+}
+
+/// [`run_servo`] with `faults` injected into the servo's loop (the baseline runs without them).
+///
+/// # Errors
+/// Twin, controller or calibration configuration errors.
+pub fn run_servo_with_faults(
+    params: &TwinParams,
+    seed: u64,
+    seeks: u32,
+    design: Option<&ScheduledDesign>,
+    options: ServoOptions,
+    calibration: Option<CalibrationDesign>,
+    faults: &[super::inject::ServoFault],
+) -> Result<ControlRun, String> {
     let mut params = params.clone();
     params.reference.seek_count = seeks;
     params.reference.targets_tracks = None;
     let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
     let p = &params.plant;
     let mut calibrated = None;
+    let mut calibrations = 0;
     let (trace, redesigns, first_stop, kind) = match design {
         None => {
             let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
@@ -389,7 +416,8 @@ pub fn run_servo(
             .with_calibration(calibration)?;
             calibrated = c.calibrate(&mut twin);
             twin.set_controller_label("scheduled");
-            twin.run(&mut c);
+            super::inject::run_with_faults(&mut twin, &mut c, faults);
+            calibrations = c.state.calibrations();
             (
                 c.trace,
                 c.redesigns,
@@ -407,5 +435,6 @@ pub fn run_servo(
         redesigns,
         first_stop,
         calibration: calibrated,
+        calibrations,
     })
 }

@@ -7,7 +7,7 @@ use sledid::control::ScheduledDesign;
 use sledid::servo::{CalibrationDesign, Identification, ServoOptions};
 
 use super::access::{Quantiles, access_samples, min_dwell_samples};
-use crate::control::run::{CalibrationBrief, ControlRun, run_servo};
+use crate::control::run::{CalibrationBrief, ControlRun, run_servo_with_faults};
 use crate::twin::{
     PlantParams, ReferenceProfile, SeekDistribution, Twin, TwinParams, min_time_seek,
 };
@@ -210,6 +210,8 @@ pub struct SeekSummary {
     pub safe_stop: Option<SafeStop>,
     /// Power-on calibration, when the servo calibrated.
     pub calibration: Option<CalibrationBrief>,
+    /// Calibrations adopted over the run (power-on's and every re-calibration).
+    pub calibrations: u32,
 }
 
 /// A latched safe stop of a run.
@@ -247,6 +249,11 @@ impl SafeStop {
 impl SeekSummary {
     /// One line: access time, access / bound, overshoot, pulses, unsettled seeks and the stop.
     pub fn line(&self) -> String {
+        let recal = if self.calibrations > 1 {
+            format!(", calibrated again {}×", self.calibrations - 1)
+        } else {
+            String::new()
+        };
         let stop = self.safe_stop.map_or(String::new(), |st| {
             format!(
                 "; SAFE STOP ({}) at sample {}, seek {}, reading {} quanta",
@@ -254,7 +261,7 @@ impl SeekSummary {
             )
         });
         format!(
-            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}{stop}",
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}{recal}{stop}",
             self.controller,
             self.access_ms.median,
             self.access_ms.p95,
@@ -291,6 +298,7 @@ impl SeekSummary {
             dwell_s,
             safe_stop: None,
             calibration: None,
+            calibrations: 0,
         }
     }
 }
@@ -317,10 +325,24 @@ pub fn run_seeks(
     controller: &SeekController,
     options: &SeekOptions,
 ) -> Result<SeekRun, String> {
+    run_seeks_with_faults(plant, controller, options, &[])
+}
+
+/// [`run_seeks`] with `faults` injected into the servo's loop (`sledid seek --inject`; the
+/// baseline runs without them).
+///
+/// # Errors
+/// As [`run_seeks`].
+pub fn run_seeks_with_faults(
+    plant: &TwinParams,
+    controller: &SeekController,
+    options: &SeekOptions,
+    faults: &[crate::control::inject::ServoFault],
+) -> Result<SeekRun, String> {
     let params = options.twin_params(plant, controller.profile())?;
     let calibration = (options.calibrate && matches!(controller, SeekController::Seek(_)))
         .then(CalibrationDesign::default);
-    let run = run_servo(
+    let run = run_servo_with_faults(
         &params,
         options.seed,
         options.seeks,
@@ -334,11 +356,13 @@ pub fn run_seeks(
             ..ServoOptions::default()
         },
         calibration,
+        faults,
     )?;
     let rows = rows(&run);
     let summary = SeekSummary {
         safe_stop: SafeStop::of(&run),
         calibration: run.calibration.map(|c| c.brief(params.plant.ts_s)),
+        calibrations: run.calibrations,
         ..SeekSummary::of(controller.label(), &rows, params.reference.dwell_s)
     };
     Ok(SeekRun {
