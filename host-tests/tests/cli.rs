@@ -62,3 +62,47 @@ fn the_demo_ends_with_the_calibrated_servo() {
     assert!(dir.join("seek/seek_vs_distance.png").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `sledid control --inject`: a reversed sensor at sample 2,000 (`flip`: y → −y, a jump across
+/// zero) stops the reference-following servo, and the summary says so with the sample and the
+/// reading (measured: `travel` at 2,000 with 6 seeks, `runaway` at 3,019 with the fault at 3,000
+/// and 20 seeks). Trips on a fault parsed but not applied, or a summary without the stop's place.
+#[test]
+fn control_takes_injected_faults() {
+    let dir = std::env::temp_dir().join(format!("sledid-cli-inject-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
+        .args([
+            "control",
+            "--seeks",
+            "6",
+            "--inject",
+            "flip:from=2000",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .expect("sledid control runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let stop = json["safe_stop"].as_str().expect("stopped");
+    let sample: usize = ["runaway at sample ", "travel at sample "]
+        .iter()
+        .find_map(|p| stop.strip_prefix(p))
+        .and_then(|s| s.split(',').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{stop}"));
+    assert!((2000..=2100).contains(&sample), "{stop}");
+    let bad = Command::new(env!("CARGO_BIN_EXE_sledid"))
+        .args(["control", "--inject", "mass:at=1", "--out"])
+        .arg(&dir)
+        .output()
+        .expect("sledid control runs");
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("missing `factor=`"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,7 +3,9 @@
 //! prior plant only, never from the plant it runs on.
 
 use sledid::servo::{Identification, ServoOptions};
-use sledid_host::control::{Perturbation, design_from_prior, plot, run_with_options};
+use sledid_host::control::inject::ServoFault;
+use sledid_host::control::run::run_servo_with_faults;
+use sledid_host::control::{Perturbation, design_from_prior, plot};
 use sledid_host::twin::TwinParams;
 use std::path::PathBuf;
 
@@ -52,6 +54,11 @@ pub struct Args {
     /// Seed of the seeks and the sensor noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// A fault injected into the servo's loop, repeatable (as `sledid seek --inject`: the replay's
+    /// sensor faults, `drive-flip:from=K`, `mass:at=K,factor=F`, `friction:at=K,factor=F`; K from
+    /// the first sample). `safe_stop` in the summary says what stopped the servo, where.
+    #[arg(long)]
+    pub inject: Vec<String>,
     /// Output directory: summary.json, step_responses.png.
     #[arg(long)]
     pub out: PathBuf,
@@ -85,7 +92,20 @@ pub fn run(a: &Args) -> Result<(), String> {
         ControllerArg::Baseline => None,
         ControllerArg::Scheduled => Some(design_from_prior(&params, &prior.plant)?),
     };
-    let run = run_with_options(&params, a.seed, a.seeks, design.as_ref(), options)?;
+    let faults: Vec<ServoFault> = a
+        .inject
+        .iter()
+        .map(|s| s.parse())
+        .collect::<Result<_, _>>()?;
+    let run = run_servo_with_faults(
+        &params,
+        a.seed,
+        a.seeks,
+        design.as_ref(),
+        options,
+        None,
+        &faults,
+    )?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let json = serde_json::to_string_pretty(&run.summary).map_err(|e| e.to_string())?;
     let path = a.out.join("summary.json");

@@ -427,7 +427,10 @@ pub fn run_servo_with_faults(
         }
     };
     let mut summary = summarize(&twin, &trace, &redesigns, kind, seed);
-    summary.safe_stop = first_stop.map(|(_, reason)| format!("{reason:?}"));
+    summary.safe_stop = first_stop.map(|(k, reason)| {
+        let y = twin.samples().get(k).map_or(0, |s| s.y_counts);
+        format!("{} at sample {k}, reading {y} quanta", reason.name())
+    });
     Ok(ControlRun {
         twin,
         trace,

@@ -101,7 +101,7 @@ pub struct ControlSummary {
     pub redesigns: RedesignCounts,
     /// Largest |u| applied, V.
     pub u_peak_v: f64,
-    /// The servo's safe stop, if it stopped (reason).
+    /// The servo's safe stop, if it stopped: reason, sample, reading.
     pub safe_stop: Option<String>,
 }
 
