@@ -445,7 +445,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// integrators and regions would otherwise resume from before the stop), the identifier keeps
     /// what it learnt. The only way out of a safe stop.
     pub fn reset_safe_stop(&self, state: &mut ServoState<C, I>) {
-        state.safety = SafetyState::new();
+        state.safety = state.safety.reset();
         state.controller = self.controller.new_state();
         state.in_fallback = false;
         if !state.calibration.is_done() {
@@ -708,6 +708,12 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                     // Re-calibrated: the command in progress is not re-calibrated again.
                     calibration::CalibrationWatch::rearm_spent(&model, state.watch_r)
                 };
+                // The stall rule at 3× the breakaway measured on this sled (the configuration's
+                // is set for every sled the prior may meet: 24× its Coulomb level).
+                let [bk_pos, bk_neg] = state.calibration.record().breakaway_i16f16;
+                state
+                    .safety
+                    .set_stall_drive(&self.safety, bk_pos.max(bk_neg).saturating_mul(3));
                 state.calibrated = Some(model);
                 state.calibrations = state.calibrations.saturating_add(1);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);

@@ -312,7 +312,8 @@ impl SafetyConfig {
         };
         let dy_i16f16 = sat_i32(y.raw().saturating_sub(previous));
         // Stall: a strong drive, no reading change.
-        let strong = saturated || u.raw().unsigned_abs() >= self.stall_drive.unsigned_abs();
+        let stall_drive = state.stall_drive.unwrap_or(self.stall_drive);
+        let strong = saturated || u.raw().unsigned_abs() >= stall_drive.unsigned_abs();
         state.stall = if strong && dy_i16f16 == 0 {
             state.stall.saturating_add(1)
         } else {
@@ -390,6 +391,9 @@ pub struct SafetyState {
     runaway_half: i32,
     fallbacks: [Option<u32>; FALLBACK_LIMIT_MAX + 1],
     latched: Option<StopReason>,
+    /// u_stall measured on this sled (power-on calibration), I16F16 raw; `None`: the
+    /// configuration's.
+    stall_drive: Option<i32>,
 }
 
 impl SafetyState {
@@ -411,7 +415,23 @@ impl SafetyState {
             runaway_half: 0,
             fallbacks: [None; FALLBACK_LIMIT_MAX + 1],
             latched: None,
+            stall_drive: None,
         }
+    }
+
+    /// The stall rule's drive from a measurement of this sled (power-on calibration: 3× its
+    /// larger breakaway drive, I16F16 raw full scale), never above the configuration's (which must
+    /// hold for every sled the prior may meet) nor below 1 % of full scale.
+    pub fn set_stall_drive(&mut self, config: &SafetyConfig, drive_i16f16: i32) {
+        let floor = (1i32 << 16) / 100;
+        self.stall_drive = Some(drive_i16f16.clamp(floor, config.stall_drive.max(floor)));
+    }
+
+    /// A fresh state (nothing seen, not stopped) that keeps what was measured on the sled.
+    pub const fn reset(&self) -> Self {
+        let mut s = Self::new();
+        s.stall_drive = self.stall_drive;
+        s
     }
 
     /// The latched stop, if any.
