@@ -85,7 +85,11 @@ fn the_servo_holds_up_on_the_plant_family() {
             s.hold_true_error_max_quanta
         );
         assert!(s.high_friction >= 30, "seed {seed}: {}", s.high_friction);
-        assert!(s.servo_samples > 10_000_000, "{}", s.servo_samples);
+        // Every run of every variant to its schedule's end: 43,440,000 samples on seeds 1 and 7
+        // (measured; 200 plants × 100 seeks, each dwell fixed). A run cut short (an error, a
+        // schedule that ends early) lowers it; it was asserted only > 10⁷ before.
+        println!("seed {seed}: {} servo samples", s.servo_samples);
+        assert_eq!(s.servo_samples, 43_440_000, "seed {seed}");
         assert_eq!(s.safe_stops_servo, 0, "seed {seed}: a false safe stop");
         assert_eq!(
             s.safe_stops, 0,
