@@ -182,13 +182,15 @@ const OWN_KIND: [(NonlinearPlant, &[&str]); 4] = [
 
 /// Seeds of the plant records (identification record `2k − 1`, validation `2k`). Seeds 1–4 were
 /// measured while choosing the criterion; 5 and 6 were not (both pass; one kept for CI time).
-const PLANT_SEEDS: [u64; 1] = [5];
+const PLANT_SEEDS: [u64; 4] = [1, 2, 3, 4];
 
 /// On closed-loop plants with a structure's own kind of nonlinearity (1,000 identification
 /// samples, validation on another record), the study recommends that structure at Ts and it
 /// beats its linear start on validation.
 ///
-/// Measured (STUDY.md): 15 of 16 cases on seeds 1–4, 4 of 4 on each of seeds 5 and 6; the miss is SecondOrderInput seed 2,
+/// Measured (STUDY.md; re-measured 2026-11-27 with the one-pass kernel): 15 of 16 cases on seeds
+/// 1–4, 4 of 4 on each of seeds 5 and 6 (23 of 24); the test runs seeds 1–4 (it ran seed 5 alone,
+/// leaving the known miss out) and asserts at most that one miss. The miss is SecondOrderInput seed 2,
 /// where NOE221 validates −54 % against OE2 but one held-out third scores it 1.74 (OE2 0.59): its
 /// fit on the last two thirds extrapolates badly to the first, and OE2 is recommended. What
 /// trips it: any criterion that does not reward the true structure (e.g. a margin above the
@@ -257,5 +259,16 @@ fn each_structure_is_recommended_on_a_plant_of_its_own_kind() {
         "own structure recommended at Ts in {hits} of {} cases",
         results.len()
     );
-    assert_eq!(hits, results.len());
+    assert!(hits + 1 >= results.len(), "{hits} of {}", results.len());
+    let missed: Vec<_> = results
+        .iter()
+        .filter(|(_, own, _, s)| {
+            !own.contains(&s.at_ts.recommended.as_ref().unwrap().model.as_str())
+        })
+        .map(|(p, _, seed, _)| format!("{p:?} seed {seed}"))
+        .collect();
+    assert!(
+        missed.iter().all(|m| m == "SecondOrderInput seed 2"),
+        "{missed:?}"
+    );
 }
