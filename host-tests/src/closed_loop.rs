@@ -134,8 +134,7 @@ pub fn run_loop(
         for f in faults {
             match *f {
                 LoopFault::MassStep { at, factor } if at == k => {
-                    let m = twin.plant().mass_kg() * factor;
-                    twin.plant_mut().set_mass_kg(m);
+                    twin.plant_mut().scale_mass(factor)
                 }
                 LoopFault::FrictionStep { at, factor } if at == k => {
                     twin.plant_mut().scale_friction(factor)

@@ -109,7 +109,7 @@ fn the_fit_matches_float64() {
     .expect("the family calibrates");
     let (mut worst_a, mut worst_b, mut worst_c) = (0.0f64, 0.0f64, 0.0f64);
     for check in &c {
-        let out = check.outcome.as_ref().expect("outcome");
+        let out = &check.outcome;
         let m = out.model.expect("calibrated");
         let r = fit_f64(&out.record).expect("the reference fits");
         worst_a = worst_a.max((f64::from(m.a) - r.a).abs());
@@ -156,8 +156,10 @@ fn run_faulty(
 
 /// A sled that does not respond like one ends calibration stopped, with the drive cut, and never
 /// starts seeking: a stuck sled (static friction beyond the rail), a reversed drive, a reversed
-/// sensor, a sled whose gain is 1/400 of the prior's (outside the family's range × 4). Each stop
-/// says why; a reset runs calibration again, which refuses again. Trips on a refusal that is not
+/// sensor, a sled whose gain is 1/400 of the prior's or 50× it (outside the family's range × 4).
+/// Each stop says why, within the experiment's budget (measured: samples 30, 20, 20, 30 and 243;
+/// asserted ≤ 400, the 330-sample budget and the fit's 64-sample hand-over); a reset runs
+/// calibration again, which refuses again. Trips on a refusal that is not
 /// latched (the drive comes back), a check that is missing (the sled is calibrated and seeks) or
 /// a reset that skips calibration.
 #[test]
@@ -295,8 +297,7 @@ fn plant_change(
     servo.calibrate(&mut twin);
     while twin.step(&mut servo).is_some() {
         if twin.samples().len() == at {
-            let m = twin.plant().mass_kg();
-            twin.plant_mut().set_mass_kg(m * mass);
+            twin.plant_mut().scale_mass(mass);
             twin.plant_mut().scale_friction(friction);
         }
     }

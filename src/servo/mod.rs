@@ -257,8 +257,6 @@ pub struct ServoState<C: Controller, I: Identifier> {
     calibrations: u32,
     /// When to calibrate again.
     watch: calibration::CalibrationWatch,
-    /// The command in progress when a re-calibration started, I48F16 raw.
-    watch_r: i64,
 }
 
 /// What the servo itself did in one sample (beside the controller's [`ControlFlags`]).
@@ -481,7 +479,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             calibrated: None,
             calibrations: 0,
             watch: calibration::CalibrationWatch::default(),
-            watch_r: 0,
         }
     }
 
@@ -626,7 +623,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             // The sled no longer follows the calibrated model: calibrate again from here.
             state.calibration = CalibrationState::new();
             state.fit = Handover::new();
-            state.watch_r = r.raw();
             return self.calibration_step(cal, state, measured, u_applied);
         }
         let input = ControlInput { r, y, report };
@@ -702,12 +698,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 state.controller = self.controller.new_state();
                 self.controller.adopt(&mut state.controller, &design);
                 state.calibration.finish();
-                state.watch = if state.calibrations == 0 {
-                    calibration::CalibrationWatch::arm(&model)
-                } else {
-                    // Re-calibrated: the command in progress is not re-calibrated again.
-                    calibration::CalibrationWatch::rearm_spent(&model, state.watch_r)
-                };
+                state.watch = state.watch.adopt(&model);
                 // The stall rule at 3× the breakaway measured on this sled (the configuration's
                 // is set for every sled the prior may meet: 24× its Coulomb level).
                 let [bk_pos, bk_neg] = state.calibration.record().breakaway_i16f16;
@@ -722,39 +713,37 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 state.calibration.refuse(r);
                 state.safety.latch(StopReason::Calibration(r));
             }
-            HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
+            HandoverEvent::Missed => {
+                // The fit missed its sample: the record (complete, the experiment waits) is
+                // posted again.
+                servo.insert(ServoFlags::HANDOVER_MISSED);
+                state.fit.post(
+                    *state.calibration.record(),
+                    state.k.wrapping_add(cal.latency()),
+                );
+            }
         }
         let (u_raw, event) = state
             .calibration
             .step(cal, measured.map(PositionI48F16::raw));
         let mut u = SignalI16F16::from_raw(u_raw);
-        let latency = cal.latency();
-        let due = state.k.wrapping_add(latency);
         match event {
             calibration::experiment::Event::Recorded => {
-                state.fit.post(*state.calibration.record(), due);
+                state.fit.post(
+                    *state.calibration.record(),
+                    state.k.wrapping_add(cal.latency()),
+                );
             }
             calibration::experiment::Event::Refused(r) => {
                 state.safety.latch(StopReason::Calibration(r));
             }
-            calibration::experiment::Event::None => {
-                if state.calibration.is_running()
-                    && state.calibration.samples() > 0
-                    && state.fit.is_free()
-                    && servo.contains(ServoFlags::HANDOVER_MISSED)
-                {
-                    // The fit missed its sample: the record is posted again.
-                    state.fit.post(*state.calibration.record(), due);
-                }
-            }
+            calibration::experiment::Event::None => {}
         }
+        // A refusal latched above is the check's answer (a latched stop is returned as is).
         let home = PositionI48F16::from_raw(state.calibration.home());
-        let mut stop = self
+        let stop = self
             .safety
             .check(&mut state.safety, home, measured, u, false, false);
-        if let Some(r) = state.calibration.refusal() {
-            stop = Some(stop.unwrap_or(StopReason::Calibration(r)));
-        }
         if stop.is_some() {
             u = SignalI16F16::ZERO;
             servo.insert(ServoFlags::SAFE_STOP);
@@ -872,7 +861,6 @@ where
             calibrated: self.calibrated,
             calibrations: self.calibrations,
             watch: self.watch,
-            watch_r: self.watch_r,
         }
     }
 }

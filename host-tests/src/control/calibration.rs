@@ -34,9 +34,9 @@ pub struct CalibrationCheck {
     pub samples_to_seek: usize,
     /// The furthest the sled went, quanta.
     pub travel_quanta: f64,
-    /// The record, for the float64 reference.
+    /// The whole outcome (the record, for the float64 reference).
     #[serde(skip)]
-    pub outcome: Option<CalibrationOutcome>,
+    pub outcome: CalibrationOutcome,
 }
 
 impl CalibrationCheck {
@@ -102,7 +102,7 @@ pub fn family(family: &FamilyOptions) -> Result<Vec<CalibrationCheck>, String> {
                 samples: out.experiment_samples,
                 samples_to_seek: out.samples,
                 travel_quanta: out.travel_quanta,
-                outcome: Some(out),
+                outcome: out,
             })
         })
         .collect()

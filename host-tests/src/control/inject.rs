@@ -178,8 +178,7 @@ pub fn run_with_faults<C: ReadingController>(
         for f in faults {
             match *f {
                 ServoFault::Mass { at, factor } if at == k => {
-                    let m = twin.plant().mass_kg() * factor;
-                    twin.plant_mut().set_mass_kg(m);
+                    twin.plant_mut().scale_mass(factor);
                 }
                 ServoFault::Friction { at, factor } if at == k => {
                     twin.plant_mut().scale_friction(factor);

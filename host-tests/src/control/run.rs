@@ -111,7 +111,6 @@ impl ScheduledLoop {
             travel_quanta: f64::from(cal.record().travel_i16f16) / 65536.0,
             model: self.state.calibrated().copied(),
             refusal: cal.refusal(),
-            theta: self.theta(),
             record: *cal.record(),
         })
     }
@@ -162,8 +161,6 @@ pub struct CalibrationOutcome {
     pub model: Option<CalibratedModel>,
     /// Why the sled was refused.
     pub refusal: Option<Refusal>,
-    /// The identifier's θ after calibration.
-    pub theta: [f64; VELOCITY_N],
     /// The experiment's record (what the fit saw).
     pub record: CalibrationRecord,
 }
@@ -359,26 +356,11 @@ pub fn run_with_options(
     design: Option<&ScheduledDesign>,
     options: ServoOptions,
 ) -> Result<ControlRun, String> {
-    run_servo(params, seed, seeks, design, options, None)
+    run_servo_with_faults(params, seed, seeks, design, options, None, &[])
 }
 
-/// [`run_with_options`] with power-on calibration before the schedule (`calibration`; ignored
-/// for the baseline).
-///
-/// # Errors
-/// Twin, controller or calibration configuration errors.
-pub fn run_servo(
-    params: &TwinParams,
-    seed: u64,
-    seeks: u32,
-    design: Option<&ScheduledDesign>,
-    options: ServoOptions,
-    calibration: Option<CalibrationDesign>,
-) -> Result<ControlRun, String> {
-    run_servo_with_faults(params, seed, seeks, design, options, calibration, &[])
-}
-
-/// [`run_servo`] with `faults` injected into the servo's loop (the baseline runs without them).
+/// [`run_with_options`] with power-on calibration before the schedule (`calibration`) and
+/// `faults` injected into the servo's loop (both ignored for the baseline).
 ///
 /// # Errors
 /// Twin, controller or calibration configuration errors.

@@ -1,10 +1,12 @@
 //! Float64 reference of power-on calibration's fit (`sledid::servo::calibration::fit`): the same
 //! first-order sled with Coulomb friction, sampled exactly under the ZOH drive, least squares in
 //! (K, K·u_c(+), K·u_c(−), y₀ per push) at each pole λ, λ by a log grid and a golden-section
-//! refinement — in `f64`, with the least squares solved by Cholesky instead of the library's
+//! refinement — in `f64`, with the least squares solved by Cholesky ([`least_squares`]) instead of the library's
 //! pivoted elimination, and the golden section run to convergence (60 steps).
 
 use sledid::servo::calibration::{CalibrationRecord, SEGMENTS};
+
+use super::batch::least_squares;
 
 const P: usize = 3 + SEGMENTS;
 
@@ -59,50 +61,24 @@ fn rows(record: &CalibrationRecord, lambda: f64, mut row: impl FnMut(&[f64; P], 
     }
 }
 
-fn cholesky_solve(m: &[[f64; P]; P], rhs: &[f64; P]) -> Option<[f64; P]> {
-    let mut l = [[0.0; P]; P];
-    for i in 0..P {
-        for j in 0..=i {
-            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
-            if i == j {
-                let d = m[i][i] - s;
-                if d <= 0.0 {
-                    return None;
-                }
-                l[i][i] = d.sqrt();
-            } else {
-                l[i][j] = (m[i][j] - s) / l[j][j];
-            }
-        }
-    }
-    let mut z = [0.0; P];
-    for i in 0..P {
-        z[i] = (rhs[i] - (0..i).map(|k| l[i][k] * z[k]).sum::<f64>()) / l[i][i];
-    }
-    let mut x = [0.0; P];
-    for i in (0..P).rev() {
-        x[i] = (z[i] - (i + 1..P).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
-    }
-    Some(x)
-}
-
+/// Least squares at pole λ by [`least_squares`] (Cholesky on the normal equations), the
+/// pseudo-observations as rows: y₀ = 0 of weight 1 per push, 10⁻³·θᵢ = 0 on K and K·u_c(±) (the
+/// library's ridge of 10⁻⁶ on the normal equations). The unknowns, the residual sum of squares
+/// (the y₀ rows included) and the readings' count.
 fn solve(record: &CalibrationRecord, lambda: f64) -> Option<([f64; P], f64, usize)> {
-    let mut m = [[0.0; P]; P];
-    let mut rhs = [0.0; P];
-    let mut n = 0;
-    rows(record, lambda, |phi, x| {
-        n += 1;
-        for i in 0..P {
-            for j in 0..P {
-                m[i][j] += phi[i] * phi[j];
-            }
-            rhs[i] += phi[i] * x;
-        }
+    let (mut phi, mut x) = (Vec::new(), Vec::new());
+    rows(record, lambda, |row, target| {
+        phi.push(row.to_vec());
+        x.push(target);
     });
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] += if i >= 3 { 1.0 } else { 1e-6 };
+    let n = x.len();
+    for i in 0..P {
+        let mut row = vec![0.0; P];
+        row[i] = if i >= 3 { 1.0 } else { 1e-3 };
+        phi.push(row);
+        x.push(0.0);
     }
-    let theta = cholesky_solve(&m, &rhs)?;
+    let theta: [f64; P] = least_squares(&phi, &x)?.try_into().ok()?;
     let mut ssr = 0.0;
     rows(record, lambda, |phi, x| {
         let e = x - phi.iter().zip(&theta).map(|(p, t)| p * t).sum::<f64>();

@@ -62,6 +62,11 @@ impl SledPlant {
         }
     }
 
+    /// Scales the moving mass by `factor` (a plant change); ignored unless finite and > 0.
+    pub fn scale_mass(&mut self, factor: f64) {
+        self.set_mass_kg(self.mass_kg * factor);
+    }
+
     /// Scales Coulomb and static friction by `factor` (a plant change); ignored unless finite, ≥ 0.
     pub fn scale_friction(&mut self, factor: f64) {
         if factor.is_finite() && factor >= 0.0 {

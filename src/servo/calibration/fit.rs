@@ -4,7 +4,7 @@
 
 #![allow(clippy::float_arithmetic)] // the background's fit
 
-use super::experiment::{CalibrationRecord, SEGMENTS, Segment};
+use super::experiment::{CalibrationRecord, SEGMENTS};
 use super::{CalibrationConfig, Refusal};
 use crate::num::fixed::ParamI12F20;
 
@@ -249,9 +249,4 @@ pub fn fit(c: &CalibrationConfig, record: &CalibrationRecord) -> Result<Calibrat
         return Err(Refusal::Gain);
     }
     Ok(model)
-}
-
-/// The number of valid readings of a push (for reports).
-pub fn readings(seg: &Segment) -> usize {
-    seg.readings().len()
 }

@@ -93,13 +93,16 @@ impl CalibrationWatch {
         false
     }
 
-    /// After a re-calibration: the same command is watched again, with the new model's budget,
-    /// but not re-calibrated again.
-    pub fn rearm_spent(model: &CalibratedModel, r: i64) -> Self {
+    /// The watch for a newly adopted calibration: armed from `model`; after a re-calibration
+    /// (this watch was armed) the command in progress stays watched with the new model but is not
+    /// re-calibrated again.
+    pub fn adopt(&self, model: &CalibratedModel) -> Self {
         let mut w = Self::arm(model);
-        w.r = r;
-        w.spent = true;
-        w.budget = u32::MAX;
+        if self.armed {
+            w.r = self.r;
+            w.spent = true;
+            w.budget = u32::MAX;
+        }
         w
     }
 }
