@@ -118,15 +118,18 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
 /// The product setting: every servo designed from the nominal prior, calibrated at power-on
 /// (`sledid::servo::calibration`), holding the calibrated model and seeking on it at the
 /// calibrated α 0.7, p 0.15 (`control-family --passes seek --calibrate`). Measured seeds 1 / 7
-/// (2): access / bound median 1.09 / 1.08 (1.08), p95 2.00 / 1.75 (2.00), ≥ 200 tracks 1.07 /
-/// 1.06 (1.06), clean 98.0 / 97.0 % (98.0 %), unsettled 4 / 9 (4), pulses 0 / 2 (1), safe
+/// (2): access / bound median 1.09 / 1.08 (1.07), p95 2.00 / 1.75 (1.75), ≥ 200 tracks 1.07 /
+/// 1.06 (1.06), clean 100.0 / 100.0 % (99.5 %), unsettled 0 / 0 (2), pulses 0 / 0 (0), safe
 /// stops 0 / 0 (0) — against the on-line servo without calibration's 1.25 / 1.20 median, 3.50 /
-/// 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops (`seeks_on_the_plant_family`). The median, p95
-/// and stops meet the targets and are asserted at them, the median also at 1.15 (the
-/// identified settings α 0.6, p 0.3 on the same calibrated model measured 1.25 / 1.23); clean
-/// misses 99 % (high-friction sleds, stiction ≥ 2.5× Coulomb, and heavy near-frictionless ones
-/// lose 1–4 seeks in their settle) and is asserted at 0.95, unsettled at 15, the spread of the
-/// seeds and of the calibrated settings tried (96.0–98.5 %, 4–13). Trips on a calibration that is
+/// 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops (`seeks_on_the_plant_family`). Over seeds 1–7
+/// the plants with an unsettled seek or a pulse are 0 / 1 / 2 / 0 / 1 / 3 / 0 (of 200; at most
+/// 3 unsettled seeks and 1 pulse per family): clean ≥ 99 % holds with two plants to spare on
+/// seeds 1 and 7 and is asserted at the target, unsettled at 3 and pulses at 1 (the
+/// seeds' largest). Before the fine step's integrator restart and time limit
+/// (`control::scheduled::rest`) the same seeds measured 98.0 / 97.0 % clean, 4 / 9 unsettled,
+/// 0 / 2 pulses: reverting either trips `clean`. The median, p95 and stops meet the issue's
+/// targets and are asserted at them, the median also at 1.15 (the identified settings α 0.6,
+/// p 0.3 on the same calibrated model measured 1.25 / 1.23). Trips on a calibration that is
 /// not adopted (p95 and stops of the uncalibrated servo), calibration samples counted as access
 /// time (every first seek's ratio), a hold that lets the biased on-line estimate back in (p95
 /// 3.2–5.3, measured) or the identified settings on a calibrated model (median).
@@ -155,7 +158,12 @@ fn calibrated_seeks_on_the_plant_family() {
         assert!(s.ratio_long_median <= 1.3, "seed {seed}: {s:?}");
         assert!(s.ratio.p95 <= 2.5, "seed {seed}: {s:?}");
         assert_eq!(s.safe_stops, 0, "seed {seed}: {s:?}");
-        assert!(s.clean >= 0.95, "seed {seed}: {s:?}");
-        assert!(s.unsettled <= 15, "seed {seed}: {s:?}");
+        assert!(s.clean >= 0.99, "seed {seed}: {s:?}");
+        assert!(s.unsettled <= 3, "seed {seed}: {s:?}");
+        assert!(s.limit_cycle_pulses <= 1, "seed {seed}: {s:?}");
+        // Seek errors (`ServoFlags::SEEK_ERROR`): every unsettled seek reported; settled seeks
+        // reported all the same (settled after their budget) measured 2 / 2 of 10,000.
+        assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 2, "seed {seed}: {s:?}");
     }
 }

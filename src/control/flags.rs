@@ -33,9 +33,12 @@ impl ControlFlags {
     pub const FINE_STEP: Self = Self(1 << 10);
     /// Settle: coasting into the band, damping only.
     pub const COASTING: Self = Self(1 << 11);
+    /// A fine step's reading toward the target restarted the integrator
+    /// (`scheduled::rest`: the sled broke away; the settle law brakes it).
+    pub const INTEGRATOR_RESTARTED: Self = Self(1 << 12);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 12] = [
+    pub const NAMES: [(Self, &'static str); 13] = [
         (Self::OUTPUT_SATURATED, "output_saturated"),
         (Self::INTEGRATOR_LIMITED, "integrator_limited"),
         (Self::INTEGRATION_HELD, "integration_held"),
@@ -48,6 +51,7 @@ impl ControlFlags {
         (Self::REDESIGN_REQUESTED, "redesign_requested"),
         (Self::FINE_STEP, "fine_step"),
         (Self::COASTING, "coasting"),
+        (Self::INTEGRATOR_RESTARTED, "integrator_restarted"),
     ];
 }
 

@@ -278,14 +278,19 @@ impl ServoFlags {
     pub const SAFE_STOP: Self = Self(1 << 3);
     /// Power-on calibration owns the drive (the reference is not followed yet).
     pub const CALIBRATING: Self = Self(1 << 4);
+    /// The command in progress has not settled (±1 quantum for 10 ms) within the time its
+    /// calibrated model allows (`calibration::watch`): what a drive reports to its host as a seek
+    /// error. Raised every such sample, until it settles or a new command arrives.
+    pub const SEEK_ERROR: Self = Self(1 << 5);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 5] = [
+    pub const NAMES: [(Self, &'static str); 6] = [
         (Self::REDESIGN_POSTED, "redesign_posted"),
         (Self::REDESIGN_ADOPTED, "redesign_adopted"),
         (Self::HANDOVER_MISSED, "handover_missed"),
         (Self::SAFE_STOP, "safe_stop"),
         (Self::CALIBRATING, "calibrating"),
+        (Self::SEEK_ERROR, "seek_error"),
     ];
 }
 
@@ -625,6 +630,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             state.fit = Handover::new();
             return self.calibration_step(cal, state, measured, u_applied);
         }
+        servo.set_if(ServoFlags::SEEK_ERROR, state.watch.seek_error());
         let input = ControlInput { r, y, report };
         let mut out = self.controller.step(&mut state.controller, &input);
         let falling_back = out.flags.contains(ControlFlags::FALLBACK);

@@ -5,7 +5,7 @@ use sledid::control::{ControlFlags, Redesign, Region, ScheduledDesign};
 use sledid::ident::step::IdentifierDesign;
 use sledid::servo::{
     CalibratedModel, CalibrationDesign, CalibrationRecord, Refusal, SafetyDesign, ServoDesign,
-    ServoOptions, SledServo, SledServoState, StopReason, VELOCITY_N,
+    ServoFlags, ServoOptions, SledServo, SledServoState, StopReason, VELOCITY_N,
 };
 
 use super::design::{identifier_design, scheduled_design_for};
@@ -24,6 +24,8 @@ pub struct ScheduledLoop {
     u_full_scale_v: f64,
     /// Per sample: the region and flags.
     pub trace: Vec<(Region, ControlFlags)>,
+    /// Per sample: the servo reported a seek error ([`ServoFlags::SEEK_ERROR`]).
+    pub seek_errors: Vec<bool>,
     /// Every redesign outcome.
     pub redesigns: Vec<Redesign>,
     /// The first safe stop: sample index and reason.
@@ -75,6 +77,7 @@ impl ScheduledLoop {
             config,
             u_full_scale_v: design.baseline.u_full_scale_v,
             trace: Vec::new(),
+            seek_errors: Vec::new(),
             redesigns: Vec::new(),
             first_stop: None,
         })
@@ -103,6 +106,7 @@ impl ScheduledLoop {
         self.config.calibration()?;
         let samples = twin.pre_roll(self, |c| !c.state.calibration().is_running(), 10_000);
         self.trace.clear();
+        self.seek_errors.clear();
         self.first_stop = self.first_stop.map(|(_, r)| (0, r));
         let cal = self.state.calibration();
         Some(CalibrationOutcome {
@@ -144,6 +148,8 @@ impl super::inject::ReadingController for ScheduledLoop {
             self.first_stop = Some((self.trace.len(), reason));
         }
         self.trace.push((out.region, out.control));
+        self.seek_errors
+            .push(out.servo.contains(ServoFlags::SEEK_ERROR));
         out.u.to_f64() * self.u_full_scale_v
     }
 }
@@ -240,6 +246,8 @@ pub struct ControlRun {
     pub twin: Twin,
     /// Per sample region and flags (scheduled only).
     pub trace: Vec<(Region, ControlFlags)>,
+    /// Per sample: the servo reported a seek error (scheduled only).
+    pub seek_errors: Vec<bool>,
     /// The summary.
     pub summary: ControlSummary,
     /// Every redesign outcome, in order (scheduled only).
@@ -270,6 +278,21 @@ impl ControlRun {
                 (seek.start_index.max(1)..end)
                     .filter(|&k| on(k) && !on(k - 1))
                     .count()
+            })
+            .collect()
+    }
+
+    /// Per seek of the twin's schedule (in order, ended or not): the servo reported a seek
+    /// error during it ([`ServoFlags::SEEK_ERROR`]; never for the baseline).
+    pub fn seek_error_per_seek(&self) -> Vec<bool> {
+        self.twin
+            .seeks()
+            .iter()
+            .map(|seek| {
+                let end = seek.end_index.unwrap_or(self.seek_errors.len());
+                self.seek_errors
+                    .get(seek.start_index..end)
+                    .is_some_and(|s| s.iter().any(|&e| e))
             })
             .collect()
     }
@@ -380,13 +403,19 @@ pub fn run_servo_with_faults(
     let p = &params.plant;
     let mut calibrated = None;
     let mut calibrations = 0;
-    let (trace, redesigns, first_stop, kind) = match design {
+    let (trace, seek_errors, redesigns, first_stop, kind) = match design {
         None => {
             let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
             let mut c = FixedPid::new(&design).map_err(|e| e.to_string())?;
             twin.set_controller_label("baseline_fixed_pid");
             twin.run(&mut c);
-            (Vec::new(), Vec::new(), None, ControllerKind::Baseline)
+            (
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+                None,
+                ControllerKind::Baseline,
+            )
         }
         Some(design) => {
             let mut c = ScheduledLoop::with_safety(
@@ -402,6 +431,7 @@ pub fn run_servo_with_faults(
             calibrations = c.state.calibrations();
             (
                 c.trace,
+                c.seek_errors,
                 c.redesigns,
                 c.first_stop,
                 ControllerKind::Scheduled,
@@ -416,6 +446,7 @@ pub fn run_servo_with_faults(
     Ok(ControlRun {
         twin,
         trace,
+        seek_errors,
         summary,
         redesigns,
         first_stop,

@@ -112,6 +112,9 @@ pub enum LawMode {
     Seek,
     /// Settle, a fine step: the settle law without compensation.
     Fine,
+    /// Settle, a fine step whose reading moved toward the target: the integrator restarts at 0,
+    /// then the fine step's law.
+    FineRestart,
     /// Settle, coasting: damping only.
     Coast,
     /// Settle: the PID law with compensation.
@@ -129,6 +132,9 @@ impl LawMode {
             match out.region {
                 Region::Hold => Self::Hold,
                 Region::Seek => Self::Seek,
+                Region::Settle if f.contains(ControlFlags::INTEGRATOR_RESTARTED) => {
+                    Self::FineRestart
+                }
                 Region::Settle if f.contains(ControlFlags::FINE_STEP) => Self::Fine,
                 Region::Settle if f.contains(ControlFlags::COASTING) => Self::Coast,
                 Region::Settle => Self::Settle,
@@ -327,14 +333,19 @@ impl ScheduledF64 {
             self.seek_observer.update(plan.as_ref(), self.last_v, y);
         }
         let previous = std::mem::replace(&mut self.mode, mode);
-        let entering_settle = matches!(mode, LawMode::Fine | LawMode::Coast | LawMode::Settle);
+        let entering_settle = matches!(
+            mode,
+            LawMode::Fine | LawMode::FineRestart | LawMode::Coast | LawMode::Settle
+        );
         if previous == LawMode::Seek && entering_settle && time_optimal {
             self.v_hat = self.seek_observer.v;
         }
         let region = |m: LawMode| match m {
             LawMode::Hold => Some(Region::Hold),
             LawMode::Seek => Some(Region::Seek),
-            LawMode::Fine | LawMode::Coast | LawMode::Settle => Some(Region::Settle),
+            LawMode::Fine | LawMode::FineRestart | LawMode::Coast | LawMode::Settle => {
+                Some(Region::Settle)
+            }
             LawMode::Fallback => None,
         };
         if mode == LawMode::Fallback {
@@ -375,6 +386,10 @@ impl ScheduledF64 {
                 true,
             ),
             LawMode::Fine => (g.kp_settle * e - g.kd_settle * self.v_hat, true, false),
+            LawMode::FineRestart => {
+                self.integral = 0.0;
+                (g.kp_settle * e - g.kd_settle * self.v_hat, true, false)
+            }
             LawMode::Coast => {
                 self.integral = 0.0;
                 // Damping past a dead zone of l/2 quanta per sample (half what one flicker of

@@ -808,6 +808,13 @@ impl ScheduledConfig {
             // ends the step.
             Region::Settle if near && state.near.fine_step(&verdict) => {
                 flags.insert(ControlFlags::FINE_STEP);
+                if verdict.fine_arrived {
+                    // The sled broke away toward the target: the integrator that built up the
+                    // breakaway drive — on a sticking sled well above its Coulomb level — would
+                    // carry it a cell past; the settle law brakes it from here.
+                    state.integral_i32f32 = 0;
+                    flags.insert(ControlFlags::INTEGRATOR_RESTARTED);
+                }
                 (
                     g.kp_settle
                         .apply(e_lin)

@@ -8,7 +8,12 @@
 //! a new command r:   d = |r − y|, budget T = 2·d / v_max + T₀, since = 0, settled = false
 //! every sample:      settled once |y − r| ≤ 1 quantum for 22 samples in a row (10 ms at Ts)
 //! since = T, not settled, not yet re-calibrated for this command  →  calibrate again
+//! since ≥ T and fewer than 22 readings in a row within 1 quantum     →  seek error (per sample)
 //! ```
+//! The seek error is what a drive reports to its host for a seek that has not settled in time
+//! ([`crate::servo::ServoFlags::SEEK_ERROR`]); after a re-calibration the command keeps being
+//! watched with a budget from the new model, counted from the adoption, and a command that still
+//! does not settle raises it.
 //! v_max = K·(1 − u_c) (quanta per sample, the calibrated model's top speed at full drive, at
 //! least 1/16) and T₀ = 4/(1 − a) + 220 samples (four time constants and 100 ms), both fixed at
 //! the calibration's adoption ([`CalibrationWatch::arm`]). Integer arithmetic on the sample path.
@@ -40,6 +45,8 @@ pub struct CalibrationWatch {
     settled: bool,
     /// Re-calibrated for this command already.
     spent: bool,
+    /// The next command seen is the one a re-calibration interrupted: not re-calibrated again.
+    resumed: bool,
 }
 
 impl CalibrationWatch {
@@ -71,7 +78,8 @@ impl CalibrationWatch {
             self.since = 0;
             self.in_band = 0;
             self.settled = false;
-            self.spent = false;
+            self.spent = self.resumed;
+            self.resumed = false;
             // 2·d / v_max, both I16F16: the quotient is in samples.
             let travel = (e.min(1 << 47) as i64).saturating_mul(2) / self.v_max_i16f16.max(1);
             self.budget = u32::try_from(travel)
@@ -93,16 +101,80 @@ impl CalibrationWatch {
         false
     }
 
+    /// The command in progress has not settled within its budget: the reading is not (yet, or
+    /// no longer) within 1 quantum for 22 samples in a row.
+    pub const fn seek_error(&self) -> bool {
+        self.armed && self.since >= self.budget && self.in_band < SETTLED_SAMPLES
+    }
+
     /// The watch for a newly adopted calibration: armed from `model`; after a re-calibration
-    /// (this watch was armed) the command in progress stays watched with the new model but is not
-    /// re-calibrated again.
+    /// (this watch was armed) the command in progress is watched again from its next sample with
+    /// a budget from the new model, but not re-calibrated again.
     pub fn adopt(&self, model: &CalibratedModel) -> Self {
         let mut w = Self::arm(model);
-        if self.armed {
-            w.r = self.r;
-            w.spent = true;
-            w.budget = u32::MAX;
-        }
+        w.resumed = self.armed;
         w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const Q: i64 = 1 << 16;
+
+    /// a = 0.75, K = 16 quanta per sample at full drive, no Coulomb: v_max 16, T₀ = 16 + 220.
+    fn model() -> CalibratedModel {
+        CalibratedModel {
+            a: 0.75,
+            gain_k: 16.0,
+            coulomb_fs: [0.0; 2],
+            breakaway_fs: [0.01; 2],
+            rms: 0.1,
+        }
+    }
+
+    /// A command of 320 quanta: budget 2·320/16 + 236 = 276 samples. Trips on a seek error
+    /// raised before the budget, not raised after it while the reading is off, kept once the
+    /// reading has settled, or kept into the next command.
+    #[test]
+    fn a_seek_error_is_raised_after_the_budget_until_the_command_settles() {
+        let mut w = CalibrationWatch::arm(&model());
+        let r = 320 * Q;
+        assert!(!w.step(r, 0));
+        for _ in 1..276 {
+            assert!(!w.step(r, 5 * Q));
+            assert!(!w.seek_error());
+        }
+        assert!(w.step(r, 5 * Q), "re-calibrates once, at the budget");
+        assert!(w.seek_error());
+        for _ in 0..SETTLED_SAMPLES - 1 {
+            assert!(!w.step(r, r - Q));
+            assert!(w.seek_error(), "not settled yet");
+        }
+        assert!(!w.step(r, r));
+        assert!(!w.seek_error(), "settled");
+        assert!(!w.step(r, r + 2 * Q));
+        assert!(w.seek_error(), "off again after its budget");
+        assert!(!w.step(2 * r, r));
+        assert!(!w.seek_error(), "a new command");
+    }
+
+    /// After a re-calibration the interrupted command is watched again with a new budget from
+    /// the adoption (counted from its next sample), raises the seek error when it expires, and
+    /// is not re-calibrated a second time. Trips on the former rule (an unlimited budget: the
+    /// command never reported) or on a second re-calibration.
+    #[test]
+    fn a_command_calibrated_again_still_reports_a_seek_error() {
+        let w = CalibrationWatch::arm(&model());
+        let mut w = w.adopt(&model());
+        let r = 320 * Q;
+        // The next sample prices the command from where the sled is: 0 quanta away → 236.
+        assert!(!w.step(r, r - 5 * Q / 10));
+        for _ in 1..236 {
+            assert!(!w.step(r, r - 5 * Q));
+        }
+        assert!(!w.step(r, r - 5 * Q), "no second re-calibration");
+        assert!(w.seek_error());
     }
 }

@@ -35,6 +35,10 @@ pub struct SeekBrief {
     pub ratio_long_median: f64,
     /// Seeks not settled for 10 ms before their end.
     pub unsettled: usize,
+    /// Of those, the seeks the servo reported as seek errors.
+    pub unsettled_reported: usize,
+    /// Settled seeks the servo reported all the same (settled late, or a false alarm).
+    pub settled_reported: usize,
     /// Limit-cycle pulses.
     pub limit_cycle_pulses: usize,
     /// The safety layer's stop, if it latched one.
@@ -52,6 +56,8 @@ impl SeekBrief {
             ratio_p95: summary.ratio.p95,
             ratio_long_median: summary.ratio_long_median,
             unsettled: summary.unsettled,
+            unsettled_reported: summary.unsettled_reported,
+            settled_reported: summary.settled_reported,
             limit_cycle_pulses: summary.limit_cycle_pulses,
             safe_stop: summary.safe_stop,
             ratios: rows
@@ -64,6 +70,13 @@ impl SeekBrief {
     /// No unsettled seek and no limit-cycle pulse.
     pub fn clean(&self) -> bool {
         self.unsettled == 0 && self.limit_cycle_pulses == 0
+    }
+
+    /// Failing with nothing flagged: no stop, and an unsettled seek the servo did not report or
+    /// a limit-cycle pulse (which nothing reports).
+    pub fn unflagged(&self) -> bool {
+        self.safe_stop.is_none()
+            && (self.unsettled > self.unsettled_reported || self.limit_cycle_pulses > 0)
     }
 }
 
@@ -97,7 +110,11 @@ pub struct SeekFamilyStats {
     pub limit_cycle_pulses: usize,
     /// Plants whose safety layer latched a stop (calibration's refusals included).
     pub safe_stops: usize,
-    /// Plants with unsettled seeks or pulses and no stop: failures nothing flagged.
+    /// Unsettled seeks the servo reported as seek errors, all plants.
+    pub unsettled_reported: usize,
+    /// Settled seeks the servo reported all the same, all plants.
+    pub settled_reported: usize,
+    /// Plants failing with nothing flagged ([`SeekBrief::unflagged`]).
     pub unflagged_failures: usize,
 }
 
@@ -122,9 +139,9 @@ impl SeekFamilyStats {
             unsettled: briefs.clone().map(|b| b.unsettled).sum(),
             limit_cycle_pulses: briefs.clone().map(|b| b.limit_cycle_pulses).sum(),
             safe_stops: briefs.clone().filter(|b| b.safe_stop.is_some()).count(),
-            unflagged_failures: briefs
-                .filter(|b| !b.clean() && b.safe_stop.is_none())
-                .count(),
+            unsettled_reported: briefs.clone().map(|b| b.unsettled_reported).sum(),
+            settled_reported: briefs.clone().map(|b| b.settled_reported).sum(),
+            unflagged_failures: briefs.filter(|b| b.unflagged()).count(),
         }
     }
 }
@@ -271,12 +288,14 @@ pub fn evaluate(
 pub fn stats_table(r: &SeekFamilyReport) -> String {
     let row = |name: &str, s: &SeekFamilyStats, n: &SeekSummary| {
         format!(
-            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} | {} | {} | {} | {:.1} |\n",
+            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} ({} reported; settled but reported {}) | {} | {} | {} | {:.1} |\n",
             s.ratio.median,
             s.ratio.p95,
             s.ratio_long_median,
             100.0 * s.clean,
             s.unsettled,
+            s.unsettled_reported,
+            s.settled_reported,
             s.limit_cycle_pulses,
             s.safe_stops,
             s.unflagged_failures,
@@ -284,7 +303,7 @@ pub fn stats_table(r: &SeekFamilyReport) -> String {
         )
     };
     format!(
-        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | failing plants without a stop | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
+        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | failing plants, nothing flagged (no stop; an unreported unsettled seek or a pulse) | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
         row("seek mode (time-optimal seeks)", &r.seek, &r.nominal.seek),
         row(
             "reference-following (30 ms S-curve)",

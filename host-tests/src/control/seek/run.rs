@@ -179,6 +179,8 @@ pub struct SeekRow {
     /// Pulses above breakaway in the last half of the dwell, from settling and the first stop
     /// on (`twin::analysis`).
     pub limit_cycle_pulses: usize,
+    /// The servo reported a seek error during this seek (`ServoFlags::SEEK_ERROR`).
+    pub seek_error: bool,
 }
 
 /// `summary.json`'s statistics of one controller's run.
@@ -202,6 +204,10 @@ pub struct SeekSummary {
     pub limit_cycle_pulses: usize,
     /// Seeks that did not stay within ±1 quantum for 10 ms before their end.
     pub unsettled: usize,
+    /// Unsettled seeks the servo reported (a seek error during the seek).
+    pub unsettled_reported: usize,
+    /// Settled seeks the servo reported all the same (a late settle, or a false alarm).
+    pub settled_reported: usize,
     /// Seeks without a bound (already in the band at the command).
     pub without_bound: usize,
     /// The dwell the run used, s.
@@ -261,7 +267,7 @@ impl SeekSummary {
             )
         });
         format!(
-            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {}{recal}{stop}",
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {} ({} reported as seek errors; settled but reported {}){recal}{stop}",
             self.controller,
             self.access_ms.median,
             self.access_ms.p95,
@@ -272,7 +278,9 @@ impl SeekSummary {
             self.ratio_long_median,
             self.overshoot_quanta.max,
             self.limit_cycle_pulses,
-            self.unsettled
+            self.unsettled,
+            self.unsettled_reported,
+            self.settled_reported
         )
     }
 
@@ -294,6 +302,8 @@ impl SeekSummary {
             overshoot_quanta: Quantiles::of(&pick(&|r| Some(r.overshoot_quanta as f64))),
             limit_cycle_pulses: rows.iter().map(|r| r.limit_cycle_pulses).sum(),
             unsettled: rows.iter().filter(|r| !r.settled).count(),
+            unsettled_reported: rows.iter().filter(|r| !r.settled && r.seek_error).count(),
+            settled_reported: rows.iter().filter(|r| r.settled && r.seek_error).count(),
             without_bound: rows.iter().filter(|r| r.bound_ms.is_none()).count(),
             dwell_s,
             safe_stop: None,
@@ -373,9 +383,14 @@ pub fn run_seeks_with_faults(
     })
 }
 
-/// The rows of every ended seek of `run`.
+/// The rows of every ended seek of `run`, with the servo's seek errors.
 pub fn rows(run: &ControlRun) -> Vec<SeekRow> {
-    rows_of(&run.twin)
+    let errors = run.seek_error_per_seek();
+    let mut rows = rows_of(&run.twin);
+    for row in &mut rows {
+        row.seek_error = errors.get(row.index).copied().unwrap_or(false);
+    }
+    rows
 }
 
 /// The rows of every ended seek of a twin recording, whatever controller closed its loop.
@@ -417,6 +432,7 @@ pub fn rows_of(twin: &Twin) -> Vec<SeekRow> {
             ratio: bound_ms.map(|b| access_ms / b),
             overshoot_quanta: st.as_ref().map_or(0, |s| s.overshoot_counts),
             limit_cycle_pulses: st.as_ref().map_or(0, |s| s.limit_cycle.pulses),
+            seek_error: false,
         });
     }
     rows
