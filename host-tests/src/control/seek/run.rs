@@ -208,6 +208,8 @@ pub struct SeekSummary {
     pub unsettled_reported: usize,
     /// Settled seeks the servo reported all the same (a late settle, or a false alarm).
     pub settled_reported: usize,
+    /// Failing seeks (unsettled, or with a limit-cycle pulse) the servo did not report.
+    pub failing_unreported: usize,
     /// Seeks without a bound (already in the band at the command).
     pub without_bound: usize,
     /// The dwell the run used, s.
@@ -304,6 +306,10 @@ impl SeekSummary {
             unsettled: rows.iter().filter(|r| !r.settled).count(),
             unsettled_reported: rows.iter().filter(|r| !r.settled && r.seek_error).count(),
             settled_reported: rows.iter().filter(|r| r.settled && r.seek_error).count(),
+            failing_unreported: rows
+                .iter()
+                .filter(|r| (!r.settled || r.limit_cycle_pulses > 0) && !r.seek_error)
+                .count(),
             without_bound: rows.iter().filter(|r| r.bound_ms.is_none()).count(),
             dwell_s,
             safe_stop: None,
