@@ -3,10 +3,9 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sledid_host::study::models::{
-    LinearModel, ModelSpec, Structure, fit_arx, fit_oe, simulate, sse_from,
-};
+use sledid_host::study::models::{LinearModel, ModelSpec, fit_arx, fit_oe, simulate, sse_from};
 use sledid_host::study::protocol::{PAPER_WINDOW, run_twin};
+use sledid_host::study::results::Structure;
 use sledid_host::study::{
     Segment, Signals, Study, StudyOptions, analysis::cross_correlation, run, write_outputs,
 };

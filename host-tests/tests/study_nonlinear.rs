@@ -5,8 +5,8 @@
 //! assertions say is what was measured (see STUDY.md); the thresholds leave a margin around the
 //! measured values and were set after measuring, as regression guards: they can fail.
 
-use sledid_host::study::nonlinear::NonlinearReport;
 use sledid_host::study::protocol::{PAPER_WINDOW, run_twin_with};
+use sledid_host::study::results::NonlinearReport;
 use sledid_host::study::{Centring, Segment, Study, StudyInput, StudyOptions, run_files};
 use sledid_host::twin::TwinParams;
 use std::path::PathBuf;

@@ -1,27 +1,11 @@
 //! Model validation and data views of the study: residual–input cross-correlation (paper Fig. 7,
 //! 18), the criterion surface of the first-order models (Fig. 8) and the periodogram (Fig. 5 b).
 
-use serde::Serialize;
-
 use super::models::{LinearModel, simulate, sse_from};
+use super::results::{CriterionSurfaces, CrossCorrelation, Periodogram, SurfacePoint};
 
 /// The 99 % two-sided normal quantile: bounds `±2.58/√N` on a cross-correlation of white noise.
 pub const Z_99: f64 = 2.58;
-
-/// Normalised cross-correlation `R_εu(τ)` of residuals and input, with 99 % bounds.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct CrossCorrelation {
-    /// Lags τ (samples); `R_εu(τ)` pairs `ε(t)` with `u(t − τ)`.
-    pub lags: Vec<i64>,
-    /// `Σₜ ε̃(t) ũ(t−τ) / √(Σ ε̃² Σ ũ²)` with the means removed (ε̃, ũ).
-    pub values: Vec<f64>,
-    /// `2.58/√N`.
-    pub bound: f64,
-    /// Number of samples N.
-    pub samples: usize,
-    /// Lags whose |value| exceeds the bound.
-    pub outside: usize,
-}
 
 /// Cross-correlation of `eps` and `u` for τ = −`max_lag`…`max_lag`.
 pub fn cross_correlation(eps: &[f64], u: &[f64], max_lag: usize) -> CrossCorrelation {
@@ -54,16 +38,6 @@ pub fn cross_correlation(eps: &[f64], u: &[f64], max_lag: usize) -> CrossCorrela
     }
 }
 
-/// Periodogram `|X(f)|²/N` in dB of the mean-removed signal, for f = fs/N … fs/2 (DC, zero
-/// after the mean is removed, is left out).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Periodogram {
-    /// Frequencies, Hz.
-    pub freq_hz: Vec<f64>,
-    /// `10·log10(|X|²/N)`.
-    pub power_db: Vec<f64>,
-}
-
 /// The periodogram of `x` sampled at `ts_s` (direct DFT: the segments are ~100 samples).
 pub fn periodogram(x: &[f64], ts_s: f64) -> Periodogram {
     let n = x.len().max(1);
@@ -80,34 +54,6 @@ pub fn periodogram(x: &[f64], ts_s: f64) -> Periodogram {
         power_db.push(10.0 * ((re * re + im * im) / n as f64 + 1e-20).log10());
     }
     Periodogram { freq_hz, power_db }
-}
-
-/// A point of a criterion surface: (pole = −a1 or −f1, b1, V_N).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct SurfacePoint {
-    /// Pole, `−a1` (ARX) or `−f1` (OE).
-    pub pole: f64,
-    /// b1.
-    pub b1: f64,
-    /// The criterion there.
-    pub v_n: f64,
-}
-
-/// `V_N` (eq. 3) of the first-order ARX and OE criteria over a grid of (pole, b1).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct CriterionSurfaces {
-    /// Grid of poles (`−a1` / `−f1`), ascending.
-    pub pole_axis: Vec<f64>,
-    /// Grid of b1, ascending.
-    pub b1_axis: Vec<f64>,
-    /// ARX criterion (mean squared one-step prediction error), `[b1 index][pole index]`.
-    pub arx_v_n: Vec<Vec<f64>>,
-    /// OE criterion (mean squared simulation error), `[b1 index][pole index]`.
-    pub oe_v_n: Vec<Vec<f64>>,
-    /// The ARX1 least-squares estimate and its criterion.
-    pub arx_minimum: SurfacePoint,
-    /// The OE1 estimate and its criterion.
-    pub oe_minimum: SurfacePoint,
 }
 
 /// ARX1 criterion at (a1, b1): `V_N = 1/(N−1) Σ (y(t) + a1 y(t−1) − b1 u(t−1))²`.

@@ -1,96 +1,10 @@
-//! The study's data: segments, centring, signals in the paper's units and the centred segments the
-//! models are fitted to (see the [module documentation](super) for the conventions).
+//! The study's data: signals in the paper's units, centred and cut into the segments the models are
+//! fitted to (see the [module documentation](super) for the conventions). [`Segment`],
+//! [`Centring`] and [`Dataset`] are plain data in [`super::results`].
 
-use std::fmt;
-use std::str::FromStr;
-
+use super::results::{Centring, Dataset, Segment};
 use crate::recording::Recording;
 use crate::reference::decimate::{DecimatorF64, design_taps};
-use sledid::ident::decimate::GROUP_DELAY_SAMPLES;
-
-/// Sample indices `start..end` (end exclusive); parsed from `A:B`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub struct Segment {
-    /// First sample.
-    pub start: usize,
-    /// One past the last sample.
-    pub end: usize,
-}
-
-impl Segment {
-    /// Number of samples.
-    pub fn len(&self) -> usize {
-        self.end.saturating_sub(self.start)
-    }
-
-    /// Whether it holds no sample.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// The decimated samples m whose centre input sample `2m + 1 − 11` lies in `start..end`.
-    pub fn decimated(&self) -> Segment {
-        let g = GROUP_DELAY_SAMPLES - 1;
-        Segment {
-            start: (self.start + g).div_ceil(2),
-            end: (self.end + g).div_ceil(2),
-        }
-    }
-}
-
-impl fmt::Display for Segment {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}", self.start, self.end)
-    }
-}
-
-impl FromStr for Segment {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("segment `{s}`: expected A:B with sample indices A < B");
-        let (a, b) = s.split_once(':').ok_or_else(bad)?;
-        let start = a.trim().parse().map_err(|_| bad())?;
-        let end = b.trim().parse().map_err(|_| bad())?;
-        if start >= end {
-            return Err(bad());
-        }
-        Ok(Segment { start, end })
-    }
-}
-
-/// How a segment is centred; see the module documentation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Centring {
-    /// `FinalReference` when r is mapped, `LastOutput` otherwise.
-    Auto,
-    /// r at the segment's last sample.
-    FinalReference,
-    /// Mean of r over the segment.
-    MeanReference,
-    /// y at the segment's last sample.
-    LastOutput,
-    /// No shift.
-    None,
-}
-
-impl FromStr for Centring {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Ok(match s {
-            "auto" => Self::Auto,
-            "final-reference" => Self::FinalReference,
-            "mean-reference" => Self::MeanReference,
-            "last-output" => Self::LastOutput,
-            "none" => Self::None,
-            _ => {
-                return Err(format!(
-                    "centring `{s}`: expected auto, final-reference, mean-reference, last-output or none"
-                ));
-            }
-        })
-    }
-}
 
 /// The name of the study's y unit when none is given: `y / y_unit` is in units of `y_unit` × the
 /// y column's unit, e.g. `0.001 × y-column unit`, `1.6e-6 × y-column unit`. It is the sensor's
@@ -205,23 +119,4 @@ impl Signals {
                 .map(|x| x[r].iter().map(|v| v - centre_q).collect()),
         }
     }
-}
-
-/// One centred segment at one rate.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Dataset {
-    /// Sampling period, s.
-    pub ts_s: f64,
-    /// The unit of y and r ([`Signals::y_unit_name`]).
-    pub y_unit_name: String,
-    /// Where it sits in its (possibly decimated) recording.
-    pub segment: Segment,
-    /// The value subtracted from y and r, y unit.
-    pub centre_q: f64,
-    /// Input, V.
-    pub u: Vec<f64>,
-    /// Centred output, y unit.
-    pub y: Vec<f64>,
-    /// Centred reference, y unit.
-    pub r: Option<Vec<f64>>,
 }

@@ -4,7 +4,7 @@
 //! 1. Signals as in the paper: y in sensor quanta (`y / y_unit`, with `y_unit` the quantum), u in
 //!    volts (`u · u_scale`). Any other `y_unit` is allowed; tables and plots then name the unit
 //!    `y_unit` × the y column's unit, or the name given ([`StudyInput::y_unit_name`]).
-//!    findings.md's reference figures are shown only for the twin ([`report::ReferenceFigure`]).
+//!    findings.md's reference figures are shown only for the twin ([`results::ReferenceFigure`]).
 //! 2. An identification segment A:B and a validation segment C:D (sample indices, end exclusive),
 //!    the latter possibly from a second recording. Both are centred (below).
 //! 3. ARX1, ARX2 (eq. 1) by least squares; OE1, OE2 (eq. 2) by Levenberg–Marquardt on the
@@ -49,6 +49,7 @@ pub mod nonlinear;
 pub mod plots;
 pub mod protocol;
 pub mod report;
+pub mod results;
 pub mod select;
 pub mod table;
 
@@ -59,8 +60,8 @@ use crate::recording::{ReaderOptions, RecordingError, read_all};
 use crate::twin::TwinError;
 use sledid::ident::decimate::GROUP_DELAY_SAMPLES;
 
-pub use data::{Centring, Dataset, Segment, Signals};
-pub use report::{ModelReport, RateReport, Study};
+pub use data::Signals;
+pub use results::{Centring, Dataset, ModelReport, RateReport, Segment, Study};
 
 /// First sample of a segment counted in every RMS (the largest model order).
 pub const RMS_START: usize = 2;

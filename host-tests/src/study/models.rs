@@ -20,6 +20,7 @@
 
 use serde::Serialize;
 
+use super::results::{OeInit, Structure};
 use crate::reference::batch::{least_squares, levenberg_marquardt, normal_equations};
 
 /// Largest pole modulus an unstable ARX fit is projected to before it initialises OE.
@@ -28,16 +29,6 @@ pub const PROJECTION_RADIUS: f64 = 0.99;
 pub const LM_MAX_ITERATIONS: usize = 200;
 /// LM stops when a successful step lowers the SSE by less than this fraction.
 pub const LM_RELATIVE_TOLERANCE: f64 = 1e-12;
-
-/// ARX or OE.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Structure {
-    /// Eq. (1): least squares on the one-step prediction error.
-    Arx,
-    /// Eq. (2): prediction-error minimisation of the simulation error.
-    Oe,
-}
 
 /// A structure and its order n (1 or 2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -260,16 +251,6 @@ pub fn fit_arx(order: usize, y: &[f64], u: &[f64]) -> Option<LinearModel> {
         den: theta[..n].to_vec(),
         num: theta[n..].to_vec(),
     })
-}
-
-/// How the OE search was started.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum OeInit {
-    /// The ARX parameters as they are (the ARX model was stable).
-    Arx,
-    /// The ARX poles projected to [`PROJECTION_RADIUS`], B refitted by least squares.
-    ProjectedArx,
 }
 
 /// An OE fit and how the search went.

@@ -19,177 +19,23 @@
 //! identification segment but is worse on validation, and Akaike's FPE beside the linear one.
 //! [`StudyOptions::nonlinear_ridge`] adds `δ‖θ − θ₀‖²` to the criterion (0, the paper's
 //! criterion, by default).
+//!
+//! [`InputRanges`]: sledid::ident::nonlinear::InputRanges
 
-use serde::Serialize;
-use std::collections::BTreeMap;
-
-use super::analysis::{CrossCorrelation, cross_correlation};
+use super::analysis::cross_correlation;
 use super::models::{monic_roots, rms_from};
-use super::report::ModelReport;
-use super::select::{Criterion, fit_structure, linear_start};
+use super::results::{
+    Criterion, MapCurve, ModelReport, NonlinearFitReport, NonlinearReport, StaticMap,
+};
+use super::select::{describe, fit_structure, linear_start, parameter_names};
 use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear::{evaluate, static_map};
 use crate::reference::nonlinear_batch::simulate_from_measured;
-use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
+use sledid::ident::nonlinear::NonlinearStructure;
 
 /// Points of a static-map curve.
 const MAP_POINTS: usize = 81;
-
-/// The study's name of a structure, its linear counterpart and the paper's relative change.
-pub fn describe(s: NonlinearStructure) -> (&'static str, &'static str, Option<f64>) {
-    match s {
-        NonlinearStructure::Hammerstein => ("NOE-Hammerstein1", "OE1", Some(-0.09)),
-        NonlinearStructure::NoeOutputInput => ("NOE1-yu", "OE1", None),
-        NonlinearStructure::Noe221 => ("NOE221", "OE2", Some(-0.13)),
-        NonlinearStructure::Wiener => ("Wiener1", "OE1", None),
-        NonlinearStructure::FrictionFeedback => ("Friction2", "OE2", None),
-    }
-}
-
-/// θ's entry names, in θ's order (see `sledid::ident::nonlinear::structure`).
-pub fn parameter_names(s: NonlinearStructure) -> &'static [&'static str] {
-    match s {
-        NonlinearStructure::Hammerstein => &["f1", "b1", "w1", "a1", "c1", "w2", "a2", "c2"],
-        NonlinearStructure::NoeOutputInput => &["f1", "b1", "w", "a_y", "a_u", "c"],
-        NonlinearStructure::Noe221 | NonlinearStructure::FrictionFeedback => {
-            &["f1", "f2", "b1", "b2", "w", "a", "c"]
-        }
-        NonlinearStructure::Wiener => &["f1", "b1", "w", "a", "c"],
-    }
-}
-
-/// How the nonlinear search went.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct NonlinearFitReport {
-    /// `levenberg_marquardt`.
-    pub method: &'static str,
-    /// `oe` (the linear model as it is) or `projected_oe` (its poles pulled to 0.998 and B
-    /// refitted, because the batch fit requires |p| ≤ 0.999).
-    pub init: &'static str,
-    /// The ridge δ used.
-    pub ridge: f64,
-    /// Simulation SSE at the start (the linear model), samples na…N−1.
-    pub sse_init: f64,
-    /// Simulation SSE at the estimate.
-    pub sse_final: f64,
-    /// Accepted LM steps.
-    pub iterations: usize,
-    /// Whether LM stopped on its tolerance (not the iteration limit).
-    pub converged: bool,
-    /// The start the fit kept (lowest identification SSE, plus the ridge term if any): `linear`
-    /// (θ₀) or `random k` ([`super::select`]).
-    pub start: String,
-    /// The final identification SSE from each start, θ₀ first (∞: the fit failed).
-    pub sse_per_start: Vec<f64>,
-}
-
-/// One curve of a static map.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct MapCurve {
-    /// What it is.
-    pub label: String,
-    /// Its values at [`StaticMap::x`].
-    pub values: Vec<f64>,
-}
-
-/// The estimated static nonlinearity beside the linear model's (Fig. 13b, 15, 17b).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct StaticMap {
-    /// The map's argument, e.g. `u(t−1) (V)`.
-    pub input: String,
-    /// What the values are, e.g. `b1·u + g(u)`.
-    pub output: String,
-    /// Argument grid (the identification segment's range of the argument, ±10 %).
-    pub x: Vec<f64>,
-    /// The linear counterpart's map at x.
-    pub linear: MapCurve,
-    /// The nonlinear model's map(s) at x (eq. 6: one per ŷ(t−1) slice).
-    pub nonlinear: Vec<MapCurve>,
-    /// The argument's range over the identification segment.
-    pub data_range: [f64; 2],
-}
-
-/// One nonlinear model at one rate.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct NonlinearReport {
-    /// `NOE-Hammerstein1`, `NOE1-yu`, `NOE221`, `Wiener1`, `Friction2`.
-    pub name: String,
-    /// `sledid` structure name (`hammerstein`, `noe`, `noe221`, `wiener`, `friction`).
-    pub structure: &'static str,
-    /// The linear model it starts from and is compared with (`OE1`, `OE2`).
-    pub linear_counterpart: String,
-    /// Linear order na.
-    pub order: usize,
-    /// θ by name.
-    pub parameters: BTreeMap<String, f64>,
-    /// θ in the structure's order.
-    pub theta: Vec<f64>,
-    /// The start θ₀ (the linear model with w = 0).
-    pub theta0: Vec<f64>,
-    /// Poles of the linear part `[re, im]`.
-    pub poles: Vec<[f64; 2]>,
-    /// Finite zeros of the linear part's B.
-    pub zeros: Vec<[f64; 2]>,
-    /// Linear-part poles strictly inside the unit circle.
-    pub stable: bool,
-    /// Parameters.
-    pub n_params: usize,
-    /// Identification samples.
-    pub samples_ident: usize,
-    /// `samples_ident / n_params`.
-    pub samples_per_param: f64,
-    /// `samples_per_param <` [`MIN_SAMPLES_PER_PARAMETER`].
-    pub overfit_risk: bool,
-    /// Lower identification RMS than the linear counterpart but higher validation RMS.
-    pub overfit_evidence: bool,
-    /// Akaike's FPE of the simulation criterion.
-    pub fpe: f64,
-    /// The linear counterpart's FPE.
-    pub linear_fpe: f64,
-    /// Simulation RMS on the identification segment.
-    pub rms_sim_ident: f64,
-    /// Simulation RMS on the validation segment.
-    pub rms_sim_valid: f64,
-    /// The linear counterpart's, on identification data.
-    pub linear_rms_sim_ident: f64,
-    /// The linear counterpart's, on validation data.
-    pub linear_rms_sim_valid: f64,
-    /// `rms_sim_valid / linear_rms_sim_valid − 1` (the paper: −0.09 eq. 5, −0.13 eq. 7).
-    pub change_vs_linear_valid: f64,
-    /// The paper's figure for this change, where it gives one.
-    pub paper_change_vs_linear: Option<f64>,
-    /// The search.
-    pub fit: NonlinearFitReport,
-    /// The identification-only criterion ([`super::select`]): simulation RMS on held-out halves
-    /// of the identification segment, y unit.
-    pub cv: Criterion,
-    /// Simulation residual (the NOE predictor is its simulation) vs input on validation data.
-    pub xcorr_valid: CrossCorrelation,
-    /// The estimated static nonlinearity.
-    pub static_map: StaticMap,
-    /// Simulated output on the validation segment (plots).
-    #[serde(skip)]
-    pub sim_valid: Vec<f64>,
-}
-
-/// θ₀ of `s` from the linear θ = [f…, b…] (the paper's initialisation, [`NonlinearDesign`]).
-pub fn theta0(s: NonlinearStructure, linear: &[f64], r: InputRanges) -> Vec<f64> {
-    match s.parameter_count() {
-        5 => NonlinearDesign::<5>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        6 => NonlinearDesign::<6>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        7 => NonlinearDesign::<7>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        _ => NonlinearDesign::<8>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-    }
-}
 
 /// The internal state s(t) of the simulation from the measured start (s = ŷ but for Wiener).
 fn states(s: NonlinearStructure, theta: &[f64], y: &[f64], u: &[f64]) -> Vec<f64> {

@@ -11,9 +11,9 @@
 //!
 //! [`SeekStats::first_within_one_s`]: crate::twin::SeekStats::first_within_one_s
 
-use serde::Serialize;
 use std::path::Path;
 
+use super::results::{SeekWindow, TwinProtocol};
 use super::{Segment, Study, StudyError, StudyInput, StudyOptions, run_files};
 use crate::twin::{Twin, TwinParams};
 
@@ -22,39 +22,6 @@ pub const PAPER_WINDOW: usize = 100;
 
 /// The column mapping of a twin CSV.
 pub const TWIN_COLUMNS: &str = "u=u_v,y=y_m,r=r_m,t=t_s";
-
-/// The window taken from one seek.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SeekWindow {
-    /// Seek index in the schedule.
-    pub seek: usize,
-    /// Its target, counts.
-    pub target_counts: i64,
-    /// Its step length, counts.
-    pub step_counts: i64,
-    /// The samples taken.
-    pub segment: Segment,
-    /// Samples of the window before `|e| ≤ 1` holds for the rest of the seek: the decaying
-    /// oscillation; the rest of the window is the ±1-quantum limit cycle.
-    pub settling_samples_in_window: usize,
-    /// Overshoot beyond the target, counts.
-    pub overshoot_counts: i64,
-}
-
-/// How a twin study was set up.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct TwinProtocol {
-    /// Twin seed (default parameters).
-    pub seed: u64,
-    /// The recording written.
-    pub recording: String,
-    /// Samples per window.
-    pub window: usize,
-    /// Identification: seek 0.
-    pub ident: SeekWindow,
-    /// Validation: seek 1.
-    pub valid: SeekWindow,
-}
 
 /// The `window`-sample window of seek `k` (see the module documentation).
 pub fn seek_window(twin: &Twin, k: usize, window: usize) -> Result<SeekWindow, StudyError> {

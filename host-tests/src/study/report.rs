@@ -1,99 +1,15 @@
-//! What the study reports (serialised to `study.json`) and the table it prints.
+//! How the study's report is made: the four linear models of one rate fitted and scored into a
+//! [`RateReport`], and the reference figures (the types are in [`super::results`]).
 
-use serde::Serialize;
-use std::collections::BTreeMap;
-
-use super::analysis::{
-    CriterionSurfaces, CrossCorrelation, Periodogram, criterion_surfaces, cross_correlation,
-    periodogram,
-};
-use super::models::{
-    LinearModel, ModelSpec, OeInit, Structure, fit_arx, fit_oe, rms_from, sse_from,
-};
-use super::nonlinear::{NonlinearReport, fit_all};
-use super::plots::PlotInfo;
-use super::protocol::TwinProtocol;
-use super::select::{Criterion, Recommendation, cross_validate, recommend};
-use super::{
-    Centring, Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, Segment, StudyError, StudyOptions,
-};
+use super::analysis::{criterion_surfaces, cross_correlation, periodogram};
+use super::models::{LinearModel, ModelSpec, fit_arx, fit_oe, rms_from, sse_from};
+use super::nonlinear::fit_all;
+use super::results::{Criterion, FitReport, ModelReport, RateReport, ReferenceFigure, Structure};
+use super::select::{cross_validate, recommend};
+use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyError, StudyOptions};
 
 /// Pole modulus above which an OE estimate is reported as on the stability constraint.
 pub const BOUNDARY_MODULUS: f64 = 0.999;
-
-/// How a model's parameters were found.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FitReport {
-    /// `least_squares` (ARX) or `levenberg_marquardt` (OE).
-    pub method: &'static str,
-    /// OE: where LM started.
-    pub init: Option<OeInit>,
-    /// The criterion's SSE (prediction for ARX, simulation for OE) at the start of the search
-    /// (= `sse_final` for ARX).
-    pub sse_init: f64,
-    /// The criterion's SSE at the estimate, over samples n…N−1 of the identification segment.
-    pub sse_final: f64,
-    /// Accepted LM steps (0 for ARX).
-    pub iterations: usize,
-    /// LM trial steps rejected because a pole left the unit circle.
-    pub rejected_unstable_steps: usize,
-    /// Whether LM stopped on its tolerance.
-    pub converged: bool,
-}
-
-/// One model at one rate.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ModelReport {
-    /// `ARX1`, `ARX2`, `OE1`, `OE2`.
-    pub name: String,
-    /// ARX or OE.
-    pub structure: Structure,
-    /// n.
-    pub order: usize,
-    /// `a1…`/`f1…` and `b1…` by name.
-    pub parameters: BTreeMap<String, f64>,
-    /// θ = [a | f, b] in order.
-    pub theta: Vec<f64>,
-    /// Poles `[re, im]`.
-    pub poles: Vec<[f64; 2]>,
-    /// Finite zeros `[re, im]`.
-    pub zeros: Vec<[f64; 2]>,
-    /// All poles strictly inside the unit circle.
-    pub stable: bool,
-    /// Largest pole modulus.
-    pub max_pole_modulus: f64,
-    /// OE: the estimate sits on the stability constraint (largest pole modulus > 0.999): the
-    /// unconstrained minimum has a pole on or outside the unit circle.
-    pub at_stability_boundary: bool,
-    /// 2n.
-    pub n_params: usize,
-    /// Identification samples.
-    pub samples_ident: usize,
-    /// `samples_ident / n_params`.
-    pub samples_per_param: f64,
-    /// `samples_per_param < 10`: the estimate may be fitting the noise.
-    pub overfit_risk: bool,
-    /// The identification-only criterion ([`super::select`]): simulation RMS on held-out halves
-    /// of the identification segment, y unit.
-    pub cv: Criterion,
-    /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` of the fit's criterion.
-    pub fpe: f64,
-    /// Simulation RMS on the identification segment, y unit ([`Study::y_unit_name`]).
-    pub rms_sim_ident: f64,
-    /// Simulation RMS on the validation segment, y unit.
-    pub rms_sim_valid: f64,
-    /// One-step prediction RMS on the identification segment, y unit.
-    pub rms_pred_ident: f64,
-    /// One-step prediction RMS on the validation segment, y unit.
-    pub rms_pred_valid: f64,
-    /// The search.
-    pub fit: FitReport,
-    /// Residual (one-step prediction error) vs input on the validation segment.
-    pub xcorr_valid: CrossCorrelation,
-    /// Simulated output on the validation segment (for the plots).
-    #[serde(skip)]
-    pub sim_valid: Vec<f64>,
-}
 
 impl ModelReport {
     /// Scores `model` on both segments.
@@ -159,62 +75,6 @@ impl ModelReport {
             xcorr_valid: cross_correlation(&eps[from..], &valid.u[from..], lags),
             sim_valid,
         }
-    }
-}
-
-/// Everything at one sampling rate.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct RateReport {
-    /// `Ts` or `2·Ts`.
-    pub label: String,
-    /// Sampling period, s.
-    pub ts_s: f64,
-    /// 1 or 2.
-    pub decimation: usize,
-    /// Identification segment in this rate's sample indices.
-    pub segment_ident: Segment,
-    /// Validation segment in this rate's sample indices.
-    pub segment_valid: Segment,
-    /// Identification samples.
-    pub samples_ident: usize,
-    /// Validation samples.
-    pub samples_valid: usize,
-    /// Value subtracted from the identification y (and r), y unit.
-    pub centre_ident_q: f64,
-    /// Value subtracted from the validation y (and r), y unit.
-    pub centre_valid_q: f64,
-    /// ARX1, ARX2, OE1, OE2.
-    pub models: Vec<ModelReport>,
-    /// Every nonlinear structure, each started from its linear OE counterpart above.
-    pub nonlinear: Vec<NonlinearReport>,
-    /// The recommended model, chosen by the identification-only criterion ([`super::select`]);
-    /// `None` when no linear model could be scored.
-    pub recommended: Option<Recommendation>,
-    /// Caveats of this rate's fits.
-    #[serde(skip)]
-    pub notes: Vec<String>,
-    /// V_N over (pole, b1) of ARX1 and OE1 on the identification segment (Fig. 8).
-    pub criterion_surfaces: CriterionSurfaces,
-    /// The identification segment (for the plots).
-    #[serde(skip)]
-    pub ident: Dataset,
-    /// The validation segment (for the plots).
-    #[serde(skip)]
-    pub valid: Dataset,
-    /// Periodograms of the identification u and y (for the plots).
-    #[serde(skip)]
-    pub spectra: (Periodogram, Periodogram),
-}
-
-impl RateReport {
-    /// The linear model called `name`.
-    pub fn model(&self, name: &str) -> Option<&ModelReport> {
-        self.models.iter().find(|m| m.name == name)
-    }
-
-    /// The nonlinear model called `name`.
-    pub fn nonlinear_model(&self, name: &str) -> Option<&NonlinearReport> {
-        self.nonlinear.iter().find(|m| m.name == name)
     }
 }
 
@@ -311,24 +171,6 @@ pub(super) fn rate_report(
     })
 }
 
-/// A model's figures from the paper and, for a twin study, from `shared/findings.md`.
-///
-/// The findings figures belong to a simulated sled (a float64 study of a friction-dominated one):
-/// reference values for the twin, never for a user's recording, whose study leaves them `None`
-/// ([`reference_figures`]).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ReferenceFigure {
-    /// Model name.
-    pub model: &'static str,
-    /// findings.md: validation simulation RMS at Ts, quanta (friction-dominated simulated sled);
-    /// `None` unless the study is of the twin.
-    pub findings_rms_sim_valid_ts: Option<f64>,
-    /// findings.md: the same after ÷2.
-    pub findings_rms_sim_valid_dec2: Option<f64>,
-    /// What the paper says (it gives figures, not RMS numbers, for the linear models).
-    pub paper: &'static str,
-}
-
 /// The reference figures of the linear and nonlinear models: the paper's always, findings.md's
 /// only `with_findings` (a twin study; see [`ReferenceFigure`]).
 pub fn reference_figures(with_findings: bool) -> Vec<ReferenceFigure> {
@@ -384,45 +226,4 @@ pub fn reference_figures(with_findings: bool) -> Vec<ReferenceFigure> {
             "the paper's proposed next step (Sec. 6)",
         ),
     ]
-}
-
-/// The whole study, as written to `study.json`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Study {
-    /// `sledid study`.
-    pub tool: String,
-    /// Recording of the identification segment.
-    pub ident_source: String,
-    /// Recording of the validation segment.
-    pub valid_source: String,
-    /// Sampling period of the recording, s.
-    pub ts_s: f64,
-    /// The y column's value of one y unit (y is divided by it).
-    pub y_unit: f64,
-    /// What y and every RMS figure are in: `quanta` on the twin (`y_unit` is its sensor quantum),
-    /// the name the user gave (`--y-unit-name`), else `y_unit` × the y column's unit
-    /// ([`super::data::y_unit_label`]).
-    pub y_unit_name: String,
-    /// Factor from the u column to volts.
-    pub u_scale: f64,
-    /// The centring rule applied.
-    pub centring: Centring,
-    /// Identification segment A:B at Ts.
-    pub ident_segment: Segment,
-    /// Validation segment C:D at Ts.
-    pub valid_segment: Segment,
-    /// First sample of each segment counted in the RMS figures.
-    pub rms_start_sample: usize,
-    /// How the segments were chosen on a twin recording.
-    pub twin: Option<TwinProtocol>,
-    /// The four models at Ts.
-    pub at_ts: RateReport,
-    /// The four models after ÷2.
-    pub decimated_by_2: RateReport,
-    /// Reference figures: the paper's; findings.md's only for the twin.
-    pub reference: Vec<ReferenceFigure>,
-    /// Caveats found while running.
-    pub notes: Vec<String>,
-    /// The plots written, with what their axes and marks mean.
-    pub plots: Vec<PlotInfo>,
 }

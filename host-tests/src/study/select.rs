@@ -33,15 +33,13 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
 
 use super::models::{LinearModel, fit_arx, fit_oe, project_stable, refit_num, sse_from};
-use super::nonlinear::{NonlinearReport, describe, parameter_names, theta0};
-use super::report::ModelReport;
+use super::results::{Criterion, ModelReport, NonlinearReport, Recommendation};
 use super::{Dataset, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear_batch::{NonlinearFit, fit_from, simulate_from_measured};
-use sledid::ident::nonlinear::{InputRanges, NonlinearStructure};
+use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 
 /// A nonlinear model is recommended only when its criterion is below the best linear model's by
 /// more than this fraction: on the twin, margins 0 / 0.1 / 0.2 kept 86 / 90 / 92.5 % of 80 cases
@@ -59,25 +57,45 @@ pub const CRITERION: &str = "cv_rms_blocked_4fold";
 /// Pole modulus an OE start beyond it is pulled in to (the batch fit accepts |p| ≤ 0.999).
 pub const START_RADIUS: f64 = 0.998;
 
-/// The model the study recommends at one rate.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Recommendation {
-    /// The model's name (`OE2`, `NOE221`, ...).
-    pub model: String,
-    /// [`CRITERION`].
-    pub criterion: &'static str,
-    /// Its criterion value (RMS, y unit).
-    pub value: f64,
-    /// The linear model with the lowest criterion.
-    pub best_linear: String,
-    /// Its criterion value.
-    pub best_linear_value: f64,
-    /// The nonlinear model with the lowest criterion, if any was fitted.
-    pub best_nonlinear: Option<String>,
-    /// Its criterion value.
-    pub best_nonlinear_value: Option<f64>,
-    /// [`RECOMMEND_MARGIN`].
-    pub margin: f64,
+/// The study's name of a structure, its linear counterpart and the paper's relative change.
+pub fn describe(s: NonlinearStructure) -> (&'static str, &'static str, Option<f64>) {
+    match s {
+        NonlinearStructure::Hammerstein => ("NOE-Hammerstein1", "OE1", Some(-0.09)),
+        NonlinearStructure::NoeOutputInput => ("NOE1-yu", "OE1", None),
+        NonlinearStructure::Noe221 => ("NOE221", "OE2", Some(-0.13)),
+        NonlinearStructure::Wiener => ("Wiener1", "OE1", None),
+        NonlinearStructure::FrictionFeedback => ("Friction2", "OE2", None),
+    }
+}
+
+/// θ's entry names, in θ's order (see `sledid::ident::nonlinear::structure`).
+pub fn parameter_names(s: NonlinearStructure) -> &'static [&'static str] {
+    match s {
+        NonlinearStructure::Hammerstein => &["f1", "b1", "w1", "a1", "c1", "w2", "a2", "c2"],
+        NonlinearStructure::NoeOutputInput => &["f1", "b1", "w", "a_y", "a_u", "c"],
+        NonlinearStructure::Noe221 | NonlinearStructure::FrictionFeedback => {
+            &["f1", "f2", "b1", "b2", "w", "a", "c"]
+        }
+        NonlinearStructure::Wiener => &["f1", "b1", "w", "a", "c"],
+    }
+}
+
+/// θ₀ of `s` from the linear θ = [f…, b…] (the paper's initialisation, [`NonlinearDesign`]).
+pub fn theta0(s: NonlinearStructure, linear: &[f64], r: InputRanges) -> Vec<f64> {
+    match s.parameter_count() {
+        5 => NonlinearDesign::<5>::from_linear(s, linear, r)
+            .theta0
+            .to_vec(),
+        6 => NonlinearDesign::<6>::from_linear(s, linear, r)
+            .theta0
+            .to_vec(),
+        7 => NonlinearDesign::<7>::from_linear(s, linear, r)
+            .theta0
+            .to_vec(),
+        _ => NonlinearDesign::<8>::from_linear(s, linear, r)
+            .theta0
+            .to_vec(),
+    }
 }
 
 /// The structures' ranges for the neuron initialisation, from the data being fitted.
@@ -267,17 +285,6 @@ impl Score {
                 .collect(),
         }
     }
-}
-
-/// A model's criterion: the held-out simulation RMS over all folds and per fold, y unit. A fold
-/// whose training part the linear models cannot be fitted on (no excitation) scores no model:
-/// NaN in `folds` (null in study.json), left out of `rms`; ∞ when no fold scores.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct Criterion {
-    /// Over every held-out sample.
-    pub rms: f64,
-    /// Per fold, in the folds' order.
-    pub folds: Vec<f64>,
 }
 
 /// The criterion of every linear and nonlinear model of one rate (names as in the report),

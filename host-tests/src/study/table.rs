@@ -10,8 +10,7 @@
 use std::fmt::Write as _;
 
 use super::Study;
-use super::nonlinear::NonlinearReport;
-use super::report::{ModelReport, RateReport};
+use super::results::{ModelReport, NonlinearReport, RateReport};
 
 /// What one table row needs from a linear or a nonlinear model.
 struct Row<'a> {

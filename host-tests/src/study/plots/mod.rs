@@ -17,7 +17,6 @@
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
-use serde::Serialize;
 use std::error::Error;
 use std::path::Path;
 
@@ -26,21 +25,10 @@ mod nonlinear;
 mod planes;
 mod time;
 
-use super::report::RateReport;
+use super::results::{PlotInfo, RateReport};
 use super::{Study, StudyError};
 use planes::{pole_zero_panels, surface_panels};
 use time::{data_panels, simulation_panels, xcorr_panels};
-
-/// One written figure and how to read it.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PlotInfo {
-    /// File name in the output directory.
-    pub file: String,
-    /// The paper's figure(s) it corresponds to.
-    pub paper_figure: String,
-    /// What is drawn, axes and marks.
-    pub description: String,
-}
 
 pub(super) type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 pub(super) type Drawn = Result<(), Box<dyn Error>>;

@@ -6,7 +6,7 @@ use plotters::prelude::*;
 
 use super::time::{sim_panel, xcorr_panel};
 use super::{Area, Drawn, MEASURED, MODEL, curve_axes, legend, range};
-use crate::study::report::RateReport;
+use crate::study::results::RateReport;
 
 /// Colours of the ŷ(t−1) slices of eq. 6 after the first (which is [`MODEL`]).
 const SLICES: [RGBColor; 2] = [RGBColor(0, 158, 115), RGBColor(230, 159, 0)];

@@ -4,7 +4,7 @@
 use plotters::prelude::*;
 
 use super::{Area, Drawn, FONT, INPUT, MODEL, legend, tick};
-use crate::study::report::RateReport;
+use crate::study::results::RateReport;
 
 /// Fig. 8: criterion surfaces of the first-order models with both minima.
 pub(super) fn surface_panels(area: &Area, rate: &RateReport) -> Drawn {

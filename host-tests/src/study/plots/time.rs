@@ -5,8 +5,7 @@ use plotters::prelude::*;
 
 use super::{Area, Drawn, FONT, INPUT, MEASURED, MODEL, legend, range, tick, time_axis};
 use crate::study::Dataset;
-use crate::study::analysis::CrossCorrelation;
-use crate::study::report::{ModelReport, RateReport};
+use crate::study::results::{CrossCorrelation, ModelReport, RateReport};
 
 /// Fig. 5 / 9: time and frequency views of the identification segment.
 pub(super) fn data_panels(area: &Area, rate: &RateReport) -> Drawn {
