@@ -28,7 +28,7 @@ use crate::reference::units::{ModelKind, factors, to_normalised, to_user};
 use serde_json::json;
 use sledid::ident::conditioning::Conditioning;
 use sledid::ident::estimator::{Estimator, EstimatorDesign};
-use sledid::ident::linear::{LinearDesign, Structure};
+use sledid::ident::linear::{LinearDesign, Structure, parameter_count};
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::ident::rls::{AntiWindup, RlsDesign};
 use sledid::ident::step::{IdentifierDesign, StuckSensorDesign, reject, step};
@@ -312,17 +312,14 @@ pub fn units(file: &Path, spec: &ReplaySpec, nonlinear: bool) -> Result<Units, S
 /// parameter for configuration errors, and the path for I/O errors.
 pub fn replay(file: &Path, spec: &ReplaySpec, out: &Path) -> Result<ReplaySummary, String> {
     if let Some(structure) = spec.nonlinear {
-        return match structure.parameter_count() {
-            5 => replay_nonlinear::<5>(file, spec, out, structure),
-            6 => replay_nonlinear::<6>(file, spec, out, structure),
-            7 => replay_nonlinear::<7>(file, spec, out, structure),
-            _ => replay_nonlinear::<8>(file, spec, out, structure),
-        };
+        return sledid::with_parameter_count!(structure, |N| replay_nonlinear::<N>(
+            file, spec, out, structure
+        ));
     }
     match spec.order {
-        (1, 1) => replay_linear::<2>(file, spec, out),
-        (1, 2) | (2, 1) => replay_linear::<3>(file, spec, out),
-        (2, 2) => replay_linear::<4>(file, spec, out),
+        (1, 1) => replay_linear::<{ parameter_count(1, 1, false) }>(file, spec, out),
+        (1, 2) | (2, 1) => replay_linear::<{ parameter_count(1, 2, false) }>(file, spec, out),
+        (2, 2) => replay_linear::<{ parameter_count(2, 2, false) }>(file, spec, out),
         (na, nb) => Err(format!(
             "order na = {na}, nb = {nb}: supported are 1,1 / 1,2 / 2,1 / 2,2"
         )),

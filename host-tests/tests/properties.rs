@@ -166,7 +166,7 @@ proptest! {
     #[test]
     fn nonlinear_step_accepts_any_raw_sample(
         d in design(),
-        which in 0usize..5,
+        which in 0..sledid::ident::nonlinear::NonlinearStructure::ALL.len(),
         // Any θ₀ (the stable-denominator check aside): saturated neurons, huge weights.
         theta in prop::collection::vec(-2000.0f64..2000.0, 8),
         f1 in -0.99f64..0.99,
@@ -179,12 +179,9 @@ proptest! {
     ) {
         use sledid::ident::nonlinear::NonlinearStructure;
         let structure = NonlinearStructure::ALL[which];
-        match structure.parameter_count() {
-            5 => run_nonlinear::<5>(structure, d, &theta, f1, conditioning, &samples)?,
-            6 => run_nonlinear::<6>(structure, d, &theta, f1, conditioning, &samples)?,
-            7 => run_nonlinear::<7>(structure, d, &theta, f1, conditioning, &samples)?,
-            _ => run_nonlinear::<8>(structure, d, &theta, f1, conditioning, &samples)?,
-        }
+        sledid::with_parameter_count!(structure, |N| run_nonlinear::<N>(
+            structure, d, &theta, f1, conditioning, &samples
+        )?);
     }
 
     #[test]

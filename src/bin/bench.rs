@@ -235,7 +235,8 @@ pub struct NonlinearBench<const N: usize> {
 }
 
 impl<const N: usize> NonlinearBench<N> {
-    /// Builds the scenario for `structure` (N must be its parameter count).
+    /// Builds the scenario for `structure` (`None` unless N is its parameter count:
+    /// [`sledid::with_parameter_count`] picks N).
     pub fn new(structure: NonlinearStructure) -> Option<Self> {
         let linear: &[f64] = if structure.na() == 2 {
             &[-1.5, 0.6, 0.5, 0.2]
@@ -420,7 +421,9 @@ mod target {
     use core::cell::RefCell;
     use cortex_m_rt::entry;
     use critical_section::Mutex;
-    use sledid::ident::nonlinear::NonlinearStructure;
+    use sledid::ident::nonlinear::NonlinearStructure::{
+        FrictionFeedback, Hammerstein, Noe221, NoeOutputInput, Wiener,
+    };
 
     static RLS2: Mutex<RefCell<Option<RlsBench<2>>>> = Mutex::new(RefCell::new(None));
     static RLS3: Mutex<RefCell<Option<RlsBench<3>>>> = Mutex::new(RefCell::new(None));
@@ -430,11 +433,17 @@ mod target {
     static NEURON: Mutex<RefCell<Option<NeuronBench>>> = Mutex::new(RefCell::new(None));
     static DECIMATE: Mutex<RefCell<Option<DecimateBench>>> = Mutex::new(RefCell::new(None));
     static PID: Mutex<RefCell<Option<PidBench>>> = Mutex::new(RefCell::new(None));
-    static HAMMERSTEIN: Mutex<RefCell<Option<NonlinearBench<8>>>> = Mutex::new(RefCell::new(None));
-    static NOE: Mutex<RefCell<Option<NonlinearBench<6>>>> = Mutex::new(RefCell::new(None));
-    static NOE221: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
-    static WIENER: Mutex<RefCell<Option<NonlinearBench<5>>>> = Mutex::new(RefCell::new(None));
-    static FRICTION: Mutex<RefCell<Option<NonlinearBench<7>>>> = Mutex::new(RefCell::new(None));
+    static HAMMERSTEIN: Mutex<RefCell<Option<NonlinearBench<{ Hammerstein.parameter_count() }>>>> =
+        Mutex::new(RefCell::new(None));
+    static NOE: Mutex<RefCell<Option<NonlinearBench<{ NoeOutputInput.parameter_count() }>>>> =
+        Mutex::new(RefCell::new(None));
+    static NOE221: Mutex<RefCell<Option<NonlinearBench<{ Noe221.parameter_count() }>>>> =
+        Mutex::new(RefCell::new(None));
+    static WIENER: Mutex<RefCell<Option<NonlinearBench<{ Wiener.parameter_count() }>>>> =
+        Mutex::new(RefCell::new(None));
+    static FRICTION: Mutex<
+        RefCell<Option<NonlinearBench<{ FrictionFeedback.parameter_count() }>>>,
+    > = Mutex::new(RefCell::new(None));
     static SCHED: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static REDESIGN: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static SEEK: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
@@ -454,18 +463,13 @@ mod target {
             PID.borrow(cs).replace(PidBench::new());
             HAMMERSTEIN
                 .borrow(cs)
-                .replace(NonlinearBench::new(NonlinearStructure::Hammerstein));
-            NOE.borrow(cs)
-                .replace(NonlinearBench::new(NonlinearStructure::NoeOutputInput));
-            NOE221
-                .borrow(cs)
-                .replace(NonlinearBench::new(NonlinearStructure::Noe221));
-            WIENER
-                .borrow(cs)
-                .replace(NonlinearBench::new(NonlinearStructure::Wiener));
+                .replace(NonlinearBench::new(Hammerstein));
+            NOE.borrow(cs).replace(NonlinearBench::new(NoeOutputInput));
+            NOE221.borrow(cs).replace(NonlinearBench::new(Noe221));
+            WIENER.borrow(cs).replace(NonlinearBench::new(Wiener));
             FRICTION
                 .borrow(cs)
-                .replace(NonlinearBench::new(NonlinearStructure::FrictionFeedback));
+                .replace(NonlinearBench::new(FrictionFeedback));
             SCHED.borrow(cs).replace(ScheduledBench::new());
             REDESIGN.borrow(cs).replace(ScheduledBench::new());
             SEEK.borrow(cs).replace(ScheduledBench::new_seek());
@@ -585,27 +589,27 @@ mod target {
         };
     }
     nonlinear_entry!(
-        /// One eq. 5 Hammerstein step (N = 8).
+        /// One eq. 5 Hammerstein step.
         bench_hammerstein_step,
         HAMMERSTEIN
     );
     nonlinear_entry!(
-        /// One eq. 6 NOE step (N = 6).
+        /// One eq. 6 NOE step.
         bench_noe_step,
         NOE
     );
     nonlinear_entry!(
-        /// One eq. 7 NOE 221 step (N = 7).
+        /// One eq. 7 NOE 221 step.
         bench_noe221_step,
         NOE221
     );
     nonlinear_entry!(
-        /// One first-order Wiener step (N = 5).
+        /// One first-order Wiener step.
         bench_wiener_step,
         WIENER
     );
     nonlinear_entry!(
-        /// One friction-feedback step (N = 7).
+        /// One friction-feedback step.
         bench_friction_step,
         FRICTION
     );
@@ -718,17 +722,8 @@ fn main() {
         println!("neuron checksum = {n_acc:#x}, decimate checksum = {d_acc:#x}");
     }
     for s in NonlinearStructure::ALL {
-        let acc =
-            match s.parameter_count() {
-                5 => NonlinearBench::<5>::new(s)
-                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
-                6 => NonlinearBench::<6>::new(s)
-                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
-                7 => NonlinearBench::<7>::new(s)
-                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
-                _ => NonlinearBench::<8>::new(s)
-                    .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))),
-            };
+        let acc = sledid::with_parameter_count!(s, |N| NonlinearBench::<N>::new(s)
+            .map(|mut b| (0..5000).fold(0u32, |a, i| a ^ b.call(i))));
         println!("{} flags = {acc:?}", s.name());
     }
     if let Some(mut lb) = LoopBench::new() {

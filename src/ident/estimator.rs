@@ -6,7 +6,6 @@
 //! quantised configuration (`&self` in the per-sample call) and a state it mutates.
 
 use crate::error::ConfigError;
-use crate::ident::rls::RlsState;
 use crate::ident::status::Status;
 use crate::num::fixed::{ParamI12F20, SignalI16F16};
 
@@ -37,8 +36,10 @@ pub trait Estimator<const N: usize> {
     /// The current estimate θ.
     fn theta<'a>(&self, state: &'a Self::State) -> &'a [ParamI12F20; N];
 
-    /// The recursive least-squares state (θ, UD factors of P).
-    fn rls<'a>(&self, state: &'a Self::State) -> &'a RlsState<N>;
+    /// Whether the estimator's covariance P is still positive definite (for the UD-factored RLS
+    /// of [`crate::ident::rls`]: every dⱼ > 0), the invariant the fuzz target checks after every
+    /// sample. An estimator without a covariance returns `true`.
+    fn covariance_positive_definite(&self, state: &Self::State) -> bool;
 
     /// Holds (false) or enables (true) adaptation.
     fn set_enabled(&self, state: &mut Self::State, enabled: bool);

@@ -45,8 +45,14 @@ pub enum Structure {
     OutputErrorPredictionError,
 }
 
-/// User-facing settings of a linear model estimator with N = na + nb parameters (+ 1 with a
-/// Coulomb term).
+/// Number of parameters θ of a linear structure: na + nb (+ 1 with a Coulomb term), the N of its
+/// [`LinearDesign`] (saturating: an overflowing order matches no N).
+pub const fn parameter_count(na: usize, nb: usize, coulomb: bool) -> usize {
+    na.saturating_add(nb).saturating_add(coulomb as usize)
+}
+
+/// User-facing settings of a linear model estimator with N = [`parameter_count`]`(na, nb,
+/// coulomb)` parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LinearDesign<const N: usize> {
     /// The structure.
@@ -94,11 +100,7 @@ impl<const N: usize> LinearDesign<N> {
             nb: self.nb,
             n: N,
         };
-        let count = self
-            .na
-            .checked_add(self.nb)
-            .and_then(|n| n.checked_add(usize::from(self.coulomb)));
-        if self.na == 0 || self.nb == 0 || count != Some(N) {
+        if self.na == 0 || self.nb == 0 || parameter_count(self.na, self.nb, self.coulomb) != N {
             return Err(order_err);
         }
         if self.coulomb && self.structure != Structure::Arx {
@@ -389,8 +391,8 @@ impl<const N: usize> Estimator<N> for LinearConfig<N> {
         state.theta()
     }
 
-    fn rls<'a>(&self, state: &'a LinearState<N>) -> &'a RlsState<N> {
-        state.rls()
+    fn covariance_positive_definite(&self, state: &LinearState<N>) -> bool {
+        state.rls().is_positive_definite()
     }
 
     fn set_enabled(&self, state: &mut LinearState<N>, enabled: bool) {

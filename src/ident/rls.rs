@@ -383,6 +383,11 @@ impl<const N: usize> RlsState<N> {
         &self.d
     }
 
+    /// P = U·D·Uᵀ with U unit upper triangular is positive definite: every dⱼ > 0 (D is unsigned).
+    pub fn is_positive_definite(&self) -> bool {
+        self.d.iter().all(|d| !d.is_zero())
+    }
+
     /// trace(P) = Σⱼ dⱼ (1 + Σ_{i<j} Uᵢⱼ²).
     pub fn trace(&self) -> Dyadic {
         trace_of(self.u_i8f24.as_flattened(), &self.d, N)
@@ -1086,6 +1091,7 @@ mod tests {
             }
         }
         assert!(bounded > 1000, "{bounded}");
+        assert!(st.is_positive_definite());
         assert_eq!(
             AntiWindup::FactorCap { max: 50.0 }.factor_cap(),
             Dyadic::from_f64(32.0)

@@ -55,7 +55,7 @@ pub use handover::{Handover, HandoverEvent, Posted, Ticket};
 pub use safety::{SafetyConfig, SafetyDesign, SafetyState, StopReason};
 
 /// Parameters of the controller's identifier (ARX(1,1) on velocity with a Coulomb term).
-pub const VELOCITY_N: usize = 3;
+pub const VELOCITY_N: usize = crate::ident::linear::parameter_count(1, 1, true);
 
 /// The product's identifier: ARX(1,1) with a Coulomb term on the velocity.
 pub type VelocityIdentifier = IdentifierConfig<VELOCITY_N, LinearConfig<VELOCITY_N>>;

@@ -71,7 +71,7 @@ impl ModelSpec {
 
     /// Number of estimated parameters (2n).
     pub fn parameter_count(&self) -> usize {
-        2 * self.order
+        sledid::ident::linear::parameter_count(self.order, self.order, false)
     }
 }
 

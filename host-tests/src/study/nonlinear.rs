@@ -27,7 +27,7 @@ use super::models::{monic_roots, rms_from};
 use super::results::{
     Criterion, MapCurve, ModelReport, NonlinearFitReport, NonlinearReport, StaticMap,
 };
-use super::select::{describe, fit_structure, linear_start, parameter_names};
+use super::select::{describe, fit_structure, linear_start};
 use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear::{evaluate, static_map};
@@ -192,7 +192,8 @@ pub fn fit_all(
             structure: s.name(),
             linear_counterpart: counterpart.to_owned(),
             order: na,
-            parameters: parameter_names(s)
+            parameters: s
+                .parameter_names()
                 .iter()
                 .map(|n| (*n).to_owned())
                 .zip(f.theta.iter().copied())

@@ -68,34 +68,11 @@ pub fn describe(s: NonlinearStructure) -> (&'static str, &'static str, Option<f6
     }
 }
 
-/// θ's entry names, in θ's order (see `sledid::ident::nonlinear::structure`).
-pub fn parameter_names(s: NonlinearStructure) -> &'static [&'static str] {
-    match s {
-        NonlinearStructure::Hammerstein => &["f1", "b1", "w1", "a1", "c1", "w2", "a2", "c2"],
-        NonlinearStructure::NoeOutputInput => &["f1", "b1", "w", "a_y", "a_u", "c"],
-        NonlinearStructure::Noe221 | NonlinearStructure::FrictionFeedback => {
-            &["f1", "f2", "b1", "b2", "w", "a", "c"]
-        }
-        NonlinearStructure::Wiener => &["f1", "b1", "w", "a", "c"],
-    }
-}
-
 /// θ₀ of `s` from the linear θ = [f…, b…] (the paper's initialisation, [`NonlinearDesign`]).
 pub fn theta0(s: NonlinearStructure, linear: &[f64], r: InputRanges) -> Vec<f64> {
-    match s.parameter_count() {
-        5 => NonlinearDesign::<5>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        6 => NonlinearDesign::<6>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        7 => NonlinearDesign::<7>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-        _ => NonlinearDesign::<8>::from_linear(s, linear, r)
-            .theta0
-            .to_vec(),
-    }
+    sledid::with_parameter_count!(s, |N| NonlinearDesign::<N>::from_linear(s, linear, r)
+        .theta0
+        .to_vec())
 }
 
 /// The structures' ranges for the neuron initialisation, from the data being fitted.
@@ -160,7 +137,7 @@ fn starts(
         NonlinearStructure::Wiener => r.y,
         _ => th0[na].abs().max(1e-9) * r.u,
     };
-    let names = parameter_names(s);
+    let names = s.parameter_names();
     let mut all = vec![th0.to_vec()];
     for _ in 0..k {
         let mut th = th0.to_vec();

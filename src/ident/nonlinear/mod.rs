@@ -320,8 +320,8 @@ impl<const N: usize> Estimator<N> for NonlinearConfig<N> {
         state.theta()
     }
 
-    fn rls<'a>(&self, state: &'a NonlinearState<N>) -> &'a RlsState<N> {
-        state.rls()
+    fn covariance_positive_definite(&self, state: &NonlinearState<N>) -> bool {
+        state.rls().is_positive_definite()
     }
 
     fn set_enabled(&self, state: &mut NonlinearState<N>, enabled: bool) {

@@ -38,16 +38,16 @@ use crate::words::{WordReader, WordWriter, Words};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NonlinearStructure {
-    /// First-order NOE Hammerstein, eq. 5: two neurons on u(t−1). 8 parameters.
+    /// First-order NOE Hammerstein, eq. 5: two neurons on u(t−1).
     Hammerstein,
-    /// First-order NOE nonlinear in ŷ(t−1) and u(t−1), eq. 6: one two-input neuron. 6 parameters.
+    /// First-order NOE nonlinear in ŷ(t−1) and u(t−1), eq. 6: one two-input neuron.
     NoeOutputInput,
-    /// Second-order NOE with one neuron on u(t−1), eq. 7 (the paper's "NOE 221"). 7 parameters.
+    /// Second-order NOE with one neuron on u(t−1), eq. 7 (the paper's "NOE 221").
     Noe221,
-    /// First-order Wiener: OE linear part, then identity + one neuron (Fig. 16). 5 parameters.
+    /// First-order Wiener: OE linear part, then identity + one neuron (Fig. 16).
     Wiener,
     /// Second-order OE with a neuron of the simulated velocity fed back where the drive acts
-    /// (the paper's conclusion). 7 parameters.
+    /// (the paper's conclusion).
     FrictionFeedback,
 }
 
@@ -61,14 +61,21 @@ impl NonlinearStructure {
         Self::FrictionFeedback,
     ];
 
-    /// Number of parameters θ.
-    pub const fn parameter_count(self) -> usize {
+    /// θ's entries, in θ's order (the module table's θ column): the one table the parameter
+    /// count, and so every estimator's N, is derived from.
+    pub const fn parameter_names(self) -> &'static [&'static str] {
         match self {
-            Self::Hammerstein => 8,
-            Self::NoeOutputInput => 6,
-            Self::Noe221 | Self::FrictionFeedback => 7,
-            Self::Wiener => 5,
+            Self::Hammerstein => &["f1", "b1", "w1", "a1", "c1", "w2", "a2", "c2"],
+            Self::NoeOutputInput => &["f1", "b1", "w", "a_y", "a_u", "c"],
+            Self::Noe221 | Self::FrictionFeedback => &["f1", "f2", "b1", "b2", "w", "a", "c"],
+            Self::Wiener => &["f1", "b1", "w", "a", "c"],
         }
+    }
+
+    /// Number of parameters θ: the N of the structure's [`super::NonlinearDesign`]. A structure
+    /// chosen at run time reaches its N through [`crate::with_parameter_count`].
+    pub const fn parameter_count(self) -> usize {
+        self.parameter_names().len()
     }
 
     /// Order of the linear denominator (θ[..na]).
@@ -89,6 +96,45 @@ impl NonlinearStructure {
             Self::FrictionFeedback => "friction",
         }
     }
+}
+
+/// Evaluates `$body` with the const `$n` set to `$structure`'s
+/// [`NonlinearStructure::parameter_count`]: the one dispatch from a structure chosen at run time
+/// to the const generic N of its estimator (replay, study, bench, property and fuzz tests). One
+/// arm per structure, so a new structure that is not listed here fails to compile.
+///
+/// ```
+/// use sledid::ident::nonlinear::{NonlinearDesign, NonlinearStructure};
+///
+/// for s in NonlinearStructure::ALL {
+///     let design = sledid::with_parameter_count!(s, |N| NonlinearDesign::<N> {
+///         structure: s,
+///         theta0: [0.0; N],
+///         rls: Default::default(),
+///         stability_margin: 0.0,
+///     }
+///     .build()
+///     .is_ok());
+///     assert!(design);
+/// }
+/// ```
+#[macro_export]
+macro_rules! with_parameter_count {
+    ($structure:expr, |$n:ident| $body:expr) => {
+        $crate::with_parameter_count!(
+            @arms $structure, $n, $body;
+            Hammerstein NoeOutputInput Noe221 Wiener FrictionFeedback
+        )
+    };
+    (@arms $structure:expr, $n:ident, $body:expr; $($variant:ident)*) => {
+        match $structure {
+            $($crate::ident::nonlinear::NonlinearStructure::$variant => {
+                const $n: usize =
+                    $crate::ident::nonlinear::NonlinearStructure::$variant.parameter_count();
+                $body
+            })*
+        }
+    };
 }
 
 /// The lagged signals one step reads: s(t−1), s(t−2), u(t−1), u(t−2).
