@@ -71,7 +71,7 @@ use crate::num::gain::{LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_fr
 use crate::words::{WordReader, WordWriter, Words};
 use observer::VelocityObserver;
 use regions::{Region, RegionDesign, RegionSelector};
-use rest::NearTarget;
+use rest::{NearTarget, Verdict};
 use supervisor::{DISTRUST, ModelReport, Redesign};
 
 /// How the Seek region drives the sled.
@@ -627,9 +627,46 @@ impl ScheduledConfig {
         y: PositionI48F16,
         report: &ModelReport,
     ) -> ControlOutput {
-        let mut flags = ControlFlags::NONE;
-        let mut sat = false;
-        let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut sat);
+        let mut tally = Tally {
+            flags: ControlFlags::NONE,
+            sat: false,
+        };
+        let mut s = self.measure(state, r, y, report, &mut tally);
+        let sel = self.select(state, &mut s, &mut tally.flags);
+        request_redesign_when_due(state, &s, &sel, &mut tally.flags);
+        tally.flags.set_if(ControlFlags::FALLBACK, s.falling_back);
+        if s.falling_back && self.prior_gains.is_none() {
+            return self.step_baseline(state, &s, sel.region, tally);
+        }
+        let returning = state.in_fallback;
+        state.in_fallback = false;
+        let band = self.selector.hold_band_raw();
+        let near = sel.verdict.e_filtered.unsigned_abs() <= (band + (band >> 1)).unsigned_abs();
+        let terms = match sel.region {
+            Region::Hold => return self.step_hold(state, tally),
+            Region::Seek if s.time_optimal => return self.step_time_optimal_seek(state, &s, tally),
+            Region::Seek => self.seek_terms(state, &s),
+            Region::Settle if near && state.near.fine_step(&sel.verdict) => {
+                self.fine_step_terms(state, &s, &sel.verdict, &mut tally.flags)
+            }
+            Region::Settle if near => return self.step_coasting(state, &s, tally),
+            Region::Settle => self.settle_terms(state, &s, true),
+        };
+        self.update_integral(state, &s, &sel, terms, returning, &mut tally.flags);
+        self.drive_pid(state, terms, sel.region, tally)
+    }
+
+    /// The common front: the errors on the reading and on the linear position, priming, the
+    /// supervisor's verdict, both observers and the reference's differences.
+    fn measure(
+        &self,
+        state: &mut ScheduledState,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        report: &ModelReport,
+        tally: &mut Tally,
+    ) -> Sample {
+        let e = sat_i32(r.raw().saturating_sub(y.raw()), &mut tally.sat);
         // The linear position the laws act on: with a Wiener output map ŷ = m(x) (centred on the
         // reference), x̂ = r + m⁻¹(y − r), so that gains placed on the linear model meet a linear
         // plant; without one, y itself. Decisions (regions, rest, band) stay on the reading.
@@ -640,65 +677,98 @@ impl ScheduledConfig {
             (state.y1, state.r1) = (y_lin, r.raw());
             state.dr1_previous = 0;
             state.seek_observer.restart(y_lin);
-            flags.insert(ControlFlags::FIRST_SAMPLE);
+            tally.flags.insert(ControlFlags::FIRST_SAMPLE);
         }
-        let dy1 = sat_i32(y_lin.saturating_sub(state.y1), &mut sat);
+        let dy1 = sat_i32(y_lin.saturating_sub(state.y1), &mut tally.sat);
         let distrusted = self.supervise(state, report);
-        flags.set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
+        tally
+            .flags
+            .set_if(ControlFlags::MODEL_UNTRUSTED, distrusted);
         // Falling back: to the prior's gains where there is a prior (placed for a model several
         // times off, they hold a sled the identified model has misled), else to the baseline PID.
         let falling_back = state.fallback || distrusted;
-        // Borrowed, not copied: the gains carry the seek plan's table (a copy per sample cost
-        // ≈ 400 cycles on the M0+).
-        let g: &ModelGains = match (falling_back, &self.prior_gains) {
-            (true, Some(prior)) => prior,
-            _ => &state.gains,
-        };
+        let g = self.gains_in_use(&state.gains, falling_back);
         // The model's input over the last sample: the linear drive, after friction compensation.
-        let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut sat);
-        let mut v_hat = state.observer.update(g, v_prev, dy1, &mut sat);
+        let v_prev = sat_i32(shr_round_i64(state.last_v_i32f32, 16), &mut tally.sat);
+        let v_hat = state.observer.update(g, v_prev, dy1, &mut tally.sat);
         let time_optimal = self.seek.is_some();
         // The seek's error and velocity on its observer (time-optimal seeks only).
         let (e_seek, v_seek) = if time_optimal {
-            state.seek_observer.update(&g.seek, v_prev, y_lin, &mut sat);
+            state
+                .seek_observer
+                .update(&g.seek, v_prev, y_lin, &mut tally.sat);
             let x_hat = state.seek_observer.position();
             (
-                sat_i32(r.raw().saturating_sub(x_hat), &mut sat),
+                sat_i32(r.raw().saturating_sub(x_hat), &mut tally.sat),
                 state.seek_observer.velocity(),
             )
         } else {
             (0, 0)
         };
-        let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut sat);
+        let dr1 = sat_i32(r.raw().saturating_sub(state.r1), &mut tally.sat);
         let ar = dr1.saturating_sub(state.dr1_previous);
         (state.y1, state.r1) = (y_lin, r.raw());
         state.dr1_previous = dr1;
-        let band = self.selector.hold_band_raw();
-        let verdict = state.near.update(
-            y.raw(),
+        Sample {
+            r,
+            y,
             e,
+            e_lin,
+            dy1,
+            dr1,
+            ar,
+            v_hat,
+            e_seek,
+            v_seek,
+            time_optimal,
+            distrusted,
+            falling_back,
+        }
+    }
+
+    /// The gains in use: the prior's while falling back with a prior, else `gains` (the state's).
+    /// Borrowed, not copied: the gains carry the seek plan's table (a copy per sample cost
+    /// ≈ 400 cycles on the M0+).
+    fn gains_in_use<'a>(&'a self, gains: &'a ModelGains, falling_back: bool) -> &'a ModelGains {
+        match (falling_back, &self.prior_gains) {
+            (true, Some(prior)) => prior,
+            _ => gains,
+        }
+    }
+
+    /// The region of this sample: the near-target verdict, the selector with the time-optimal
+    /// arrival rule, and the transfer bookkeeping (the rest tracking re-entered on a change, v̂
+    /// restarted on leaving a time-optimal seek).
+    fn select(
+        &self,
+        state: &mut ScheduledState,
+        s: &mut Sample,
+        flags: &mut ControlFlags,
+    ) -> Selection {
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        let verdict = state.near.update(
+            s.y.raw(),
+            s.e,
             state.observer.mean_velocity(),
-            band,
+            self.selector.hold_band_raw(),
             g.rest_samples,
             g.rest_speed_i16f16,
             self.seek.is_some(),
         );
         let previous = state.region;
-        let mut region =
-            self.selector
-                .select(previous, e, dr1, verdict.holdable, &mut state.hold_error);
-        if time_optimal && previous == Region::Seek && region == Region::Settle {
-            // A time-optimal seek hands over at rest in the settle band, not at speed through it —
-            // at rest by the model and by the reading (the observer of a model that is off can
-            // think a sled still coasting stopped); a sled friction holds short is handed over
-            // after ARRIVAL_WAIT_SAMPLES in the band.
-            state.arrival_wait = state.arrival_wait.saturating_add(1);
-            let arrived = e.unsigned_abs() <= self.selector.settle_band_raw()
-                && g.seek.at_rest(v_seek)
-                && dy1 == 0;
-            if !arrived && state.arrival_wait < ARRIVAL_WAIT_SAMPLES {
-                region = Region::Seek;
-            }
+        let mut region = self.selector.select(
+            previous,
+            s.e,
+            s.dr1,
+            verdict.holdable,
+            &mut state.hold_error,
+        );
+        if s.time_optimal
+            && previous == Region::Seek
+            && region == Region::Settle
+            && self.seek_goes_on(state, s)
+        {
+            region = Region::Seek;
         }
         if region != Region::Seek || previous != Region::Seek {
             state.arrival_wait = 0;
@@ -706,164 +776,232 @@ impl ScheduledConfig {
         state.region = region;
         let changed = region != previous;
         if changed {
-            state.near.enter(e, region == Region::Seek);
+            state.near.enter(s.e, region == Region::Seek);
         }
-        if changed && previous == Region::Seek && time_optimal {
+        if changed && previous == Region::Seek && s.time_optimal {
             // Out of a time-optimal seek: the velocity observer lags the braking; its estimate
             // restarts at the seek observer's.
-            v_hat = v_seek;
-            state.observer.restart(v_hat);
+            s.v_hat = s.v_seek;
+            state.observer.restart(s.v_hat);
         }
         flags.set_if(ControlFlags::REGION_CHANGED, changed);
-        // A redesign on entering Settle, and again while settling once the identifier has
-        // learnt from enough motion since the last one (a loop the prior's gains leave ringing
-        // keeps moving, and keeps informing the identifier, until the gains are redesigned).
-        let entering_settle = changed && previous == Region::Seek && region == Region::Settle;
-        let informed = region == Region::Settle
-            && !distrusted
-            && state.trusted_updates >= SETTLE_REDESIGN_UPDATES
-            && !state.redesign_pending;
-        if entering_settle || informed {
-            state.redesign_pending = true;
-            flags.insert(ControlFlags::REDESIGN_REQUESTED);
+        Selection {
+            previous,
+            region,
+            changed,
+            verdict,
         }
-        flags.set_if(ControlFlags::FALLBACK, falling_back);
-        if falling_back && self.prior_gains.is_none() {
-            let entering = !state.in_fallback;
-            state.in_fallback = true;
-            if entering {
-                // The baseline's own bumpless enable: one manual step at the last output.
-                state.pid.reset();
-                state.pid.set_enabled(false);
-                state
-                    .pid
-                    .set_manual_output(SignalI16F16::from_raw(state.last_u));
-            }
-            let out = self.baseline.step(&mut state.pid, r, y);
-            state.pid.set_enabled(true);
-            flags.set_if(
-                ControlFlags::OUTPUT_SATURATED,
-                out.flags.contains(PidFlags::OUTPUT_SATURATED),
-            );
-            sat |= out.flags.contains(PidFlags::ARITHMETIC_SATURATED);
-            flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-            state.last_u = out.u.raw();
-            state.last_v_i32f32 = i64::from(forward(state, out.u.raw())) << 16;
-            return ControlOutput {
-                u: out.u,
-                region,
-                flags,
-            };
+    }
+
+    /// The time-optimal arrival rule, asked when the selector would leave Seek for Settle: true
+    /// while the seek goes on (counts the samples waited in the band).
+    fn seek_goes_on(&self, state: &mut ScheduledState, s: &Sample) -> bool {
+        // A time-optimal seek hands over at rest in the settle band, not at speed through it —
+        // at rest by the model and by the reading (the observer of a model that is off can
+        // think a sled still coasting stopped); a sled friction holds short is handed over
+        // after ARRIVAL_WAIT_SAMPLES in the band.
+        state.arrival_wait = state.arrival_wait.saturating_add(1);
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        let arrived = s.e.unsigned_abs() <= self.selector.settle_band_raw()
+            && g.seek.at_rest(s.v_seek)
+            && s.dy1 == 0;
+        !arrived && state.arrival_wait < ARRIVAL_WAIT_SAMPLES
+    }
+
+    /// The fallback without a prior: the baseline PID drives.
+    fn step_baseline(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        region: Region,
+        mut tally: Tally,
+    ) -> ControlOutput {
+        let entering = !state.in_fallback;
+        state.in_fallback = true;
+        if entering {
+            // The baseline's own bumpless enable: one manual step at the last output.
+            state.pid.reset();
+            state.pid.set_enabled(false);
+            state
+                .pid
+                .set_manual_output(SignalI16F16::from_raw(state.last_u));
         }
-        let returning = state.in_fallback;
-        state.in_fallback = false;
-        let i_max = self.integrator_limit_i32f32;
-        let near = verdict.e_filtered.unsigned_abs() <= (band + (band >> 1)).unsigned_abs();
-        let (terms, integrating, compensate) = match region {
-            Region::Hold => {
-                // Nothing drives (not even the compensation map's value at 0): static friction
-                // holds the sled; no integrator.
-                state.integral_i32f32 = 0;
-                state.last_u = self.hold_bias;
-                state.last_v_i32f32 = i64::from(forward(state, self.hold_bias)) << 16;
-                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-                return ControlOutput {
-                    u: SignalI16F16::from_raw(self.hold_bias),
-                    region,
-                    flags,
-                };
-            }
-            // Time-optimal: the drive whose stop point is the target (r), friction compensated
-            // against the motion.
-            Region::Seek if time_optimal => {
-                state.integral_i32f32 = 0;
-                let v = sat_i32(shr_round_i64(g.seek.drive(e_seek, v_seek), 16), &mut sat);
-                let u_max = (self.u_limit_i32f32 >> 16) as i32;
-                let (u, applied) = g.seek.compensate(v, v_seek, u_max);
-                flags.set_if(
-                    ControlFlags::OUTPUT_SATURATED,
-                    u.unsigned_abs() == u_max.unsigned_abs() && u != v,
-                );
-                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-                state.last_u = u;
-                state.last_v_i32f32 = i64::from(applied) << 16;
-                return ControlOutput {
-                    u: SignalI16F16::from_raw(u),
-                    region,
-                    flags,
-                };
-            }
-            // Each term < 2^62 in magnitude; four of them are summed saturating.
-            Region::Seek => (
-                g.kp_seek
-                    .apply(e_lin)
-                    .saturating_add(g.kd_seek.apply(dr1.saturating_sub(v_hat)))
-                    .saturating_add(g.kv_ff.apply(dr1))
-                    .saturating_add(g.ka_ff.apply(ar)),
-                false,
-                true,
-            ),
-            // Fine positioning: at rest near the band's edge, the settle law (no compensation: its
-            // step at zero would chatter) moves the sled toward the target cell; its first move
-            // ends the step.
-            Region::Settle if near && state.near.fine_step(&verdict) => {
-                flags.insert(ControlFlags::FINE_STEP);
-                if verdict.fine_arrived {
-                    // The sled broke away toward the target: the integrator that built up the
-                    // breakaway drive — on a sticking sled well above its Coulomb level — would
-                    // carry it a cell past; the settle law brakes it from here.
-                    state.integral_i32f32 = 0;
-                    flags.insert(ControlFlags::INTEGRATOR_RESTARTED);
-                }
-                (
-                    g.kp_settle
-                        .apply(e_lin)
-                        .saturating_sub(g.kd_settle.apply(v_hat)),
-                    true,
-                    false,
-                )
-            }
-            Region::Settle if near => {
-                // Coasting into the band: damping only, nothing pushes.
-                flags.insert(ControlFlags::COASTING);
-                state.integral_i32f32 = 0;
-                let v = 0i64.saturating_sub(g.kd_settle.apply(dead_zone(v_hat, g.obs_l)));
-                let u_max = (self.u_limit_i32f32 >> 16) as i32;
-                let u = clamp_sym_i32(sat_i32(shr_round_i64(v, 16), &mut sat), u_max);
-                state.last_u = u;
-                // Uncompensated: the linear drive the sled sees is h(u).
-                state.last_v_i32f32 = i64::from(forward(state, u)) << 16;
-                flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-                return ControlOutput {
-                    u: SignalI16F16::from_raw(u),
-                    region,
-                    flags,
-                };
-            }
-            Region::Settle => (
-                g.kp_settle
-                    .apply(e_lin)
-                    .saturating_sub(g.kd_settle.apply(v_hat)),
-                true,
-                true,
-            ),
+        let out = self.baseline.step(&mut state.pid, s.r, s.y);
+        state.pid.set_enabled(true);
+        tally.flags.set_if(
+            ControlFlags::OUTPUT_SATURATED,
+            out.flags.contains(PidFlags::OUTPUT_SATURATED),
+        );
+        tally.sat |= out.flags.contains(PidFlags::ARITHMETIC_SATURATED);
+        state.last_u = out.u.raw();
+        state.last_v_i32f32 = i64::from(forward(state, out.u.raw())) << 16;
+        tally.finish(out.u.raw(), region)
+    }
+
+    /// Hold: u = u_hold.
+    fn step_hold(&self, state: &mut ScheduledState, tally: Tally) -> ControlOutput {
+        // Nothing drives (not even the compensation map's value at 0): static friction
+        // holds the sled; no integrator.
+        state.integral_i32f32 = 0;
+        state.last_u = self.hold_bias;
+        state.last_v_i32f32 = i64::from(forward(state, self.hold_bias)) << 16;
+        tally.finish(self.hold_bias, Region::Hold)
+    }
+
+    /// Time-optimal Seek: the drive whose stop point is the target (r), friction compensated
+    /// against the motion.
+    fn step_time_optimal_seek(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        mut tally: Tally,
+    ) -> ControlOutput {
+        state.integral_i32f32 = 0;
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        let v = sat_i32(
+            shr_round_i64(g.seek.drive(s.e_seek, s.v_seek), 16),
+            &mut tally.sat,
+        );
+        let u_max = self.u_max();
+        let (u, applied) = g.seek.compensate(v, s.v_seek, u_max);
+        tally.flags.set_if(
+            ControlFlags::OUTPUT_SATURATED,
+            u.unsigned_abs() == u_max.unsigned_abs() && u != v,
+        );
+        state.last_u = u;
+        state.last_v_i32f32 = i64::from(applied) << 16;
+        tally.finish(u, Region::Seek)
+    }
+
+    /// Settle coasting into the band: damping only, nothing pushes.
+    fn step_coasting(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        mut tally: Tally,
+    ) -> ControlOutput {
+        tally.flags.insert(ControlFlags::COASTING);
+        state.integral_i32f32 = 0;
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        let v = 0i64.saturating_sub(g.kd_settle.apply(dead_zone(s.v_hat, g.obs_l)));
+        let u = clamp_sym_i32(sat_i32(shr_round_i64(v, 16), &mut tally.sat), self.u_max());
+        state.last_u = u;
+        // Uncompensated: the linear drive the sled sees is h(u).
+        state.last_v_i32f32 = i64::from(forward(state, u)) << 16;
+        tally.finish(u, Region::Settle)
+    }
+
+    /// Seek following the reference: PD with the model-inverse feedforward.
+    fn seek_terms(&self, state: &ScheduledState, s: &Sample) -> Terms {
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        // Each term < 2^62 in magnitude; four of them are summed saturating.
+        Terms {
+            sum_i32f32: g
+                .kp_seek
+                .apply(s.e_lin)
+                .saturating_add(g.kd_seek.apply(s.dr1.saturating_sub(s.v_hat)))
+                .saturating_add(g.kv_ff.apply(s.dr1))
+                .saturating_add(g.ka_ff.apply(s.ar)),
+            integrating: false,
+            compensate: true,
+        }
+    }
+
+    /// Fine positioning: at rest near the band's edge, the settle law (no compensation: its
+    /// step at zero would chatter) moves the sled toward the target cell; its first move
+    /// ends the step.
+    fn fine_step_terms(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        verdict: &Verdict,
+        flags: &mut ControlFlags,
+    ) -> Terms {
+        flags.insert(ControlFlags::FINE_STEP);
+        if verdict.fine_arrived {
+            // The sled broke away toward the target: the integrator that built up the
+            // breakaway drive — on a sticking sled well above its Coulomb level — would
+            // carry it a cell past; the settle law brakes it from here.
+            state.integral_i32f32 = 0;
+            flags.insert(ControlFlags::INTEGRATOR_RESTARTED);
+        }
+        self.settle_terms(state, s, false)
+    }
+
+    /// The settle law's PD terms (`compensate`: through the input compensation).
+    fn settle_terms(&self, state: &ScheduledState, s: &Sample, compensate: bool) -> Terms {
+        let g = self.gains_in_use(&state.gains, s.falling_back);
+        Terms {
+            sum_i32f32: g
+                .kp_settle
+                .apply(s.e_lin)
+                .saturating_sub(g.kd_settle.apply(s.v_hat)),
+            integrating: true,
+            compensate,
+        }
+    }
+
+    /// The PID-type laws' drive, the integrator updated: v = terms + I, u = clamp(h⁻¹(v), ±u_max).
+    fn drive_pid(
+        &self,
+        state: &mut ScheduledState,
+        terms: Terms,
+        region: Region,
+        mut tally: Tally,
+    ) -> ControlOutput {
+        let v = terms.sum_i32f32.saturating_add(state.integral_i32f32);
+        let v_i16f16 = sat_i32(shr_round_i64(v, 16), &mut tally.sat);
+        let u_raw = match &state.compensation {
+            Some(map) if terms.compensate => map.apply(v_i16f16),
+            _ => v_i16f16,
         };
-        if changed && previous == Region::Seek && region == Region::Settle {
+        let u = clamp_sym_i32(u_raw, self.u_max());
+        tally
+            .flags
+            .set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
+        // The linear drive the sled sees: v, or h(u) where the map was not applied. (Where the
+        // rail clips u the sled sees h(u), not v: the velocity observer is fed v there, and
+        // feeding it h(u) moved the reference-following family's holding error from 1.49 to
+        // 1.67 quanta, `tests/control_family.rs`; the time-optimal seek feeds its own observer
+        // what the rail let through.)
+        state.last_v_i32f32 = if terms.compensate {
+            v
+        } else {
+            i64::from(forward(state, u)) << 16
+        };
+        state.last_u = u;
+        tally.finish(u, region)
+    }
+
+    /// The integrator of a PID-type law: re-initialised on a transfer (bumpless), conditional
+    /// integration while settling, fading in Seek.
+    fn update_integral(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        sel: &Selection,
+        terms: Terms,
+        returning: bool,
+        flags: &mut ControlFlags,
+    ) {
+        let i_max = self.integrator_limit_i32f32;
+        if sel.seek_to_settle() {
             // The seek's terms (feedforward) do not carry over: the settle law starts from the
             // state (e, v̂) with no stored drive.
             state.integral_i32f32 = 0;
-        } else if returning || (changed && previous != Region::Hold) {
-            let wanted = state.last_v_i32f32.saturating_sub(terms);
+        } else if returning || (sel.changed && sel.previous != Region::Hold) {
+            let wanted = state.last_v_i32f32.saturating_sub(terms.sum_i32f32);
             state.integral_i32f32 = clamp_sym_i64(wanted, i_max);
             flags.set_if(
                 ControlFlags::TRANSFER_LIMITED,
                 state.integral_i32f32 != wanted,
             );
-        } else if integrating {
+        } else if terms.integrating {
+            let g = self.gains_in_use(&state.gains, s.falling_back);
             let step = integrate(
                 &mut state.integral_i32f32,
-                g.ki_settle.apply(e_lin),
-                terms,
+                g.ki_settle.apply(s.e_lin),
+                terms.sum_i32f32,
                 i_max,
                 self.u_limit_i32f32,
             );
@@ -873,32 +1011,11 @@ impl ScheduledConfig {
             // Seek: the integrator fades with a time constant of 16 samples.
             state.integral_i32f32 -= state.integral_i32f32 >> 4;
         }
-        let v = terms.saturating_add(state.integral_i32f32);
-        let v_i16f16 = sat_i32(shr_round_i64(v, 16), &mut sat);
-        let u_raw = match &state.compensation {
-            Some(map) if compensate => map.apply(v_i16f16),
-            _ => v_i16f16,
-        };
-        let u_max = (self.u_limit_i32f32 >> 16) as i32; // built from an I16F16 value
-        let u = clamp_sym_i32(u_raw, u_max);
-        flags.set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
-        flags.set_if(ControlFlags::ARITHMETIC_SATURATED, sat);
-        // The linear drive the sled sees: v, or h(u) where the map was not applied. (Where the
-        // rail clips u the sled sees h(u), not v: the velocity observer is fed v there, and
-        // feeding it h(u) moved the reference-following family's holding error from 1.49 to
-        // 1.67 quanta, `tests/control_family.rs`; the time-optimal seek feeds its own observer
-        // what the rail let through.)
-        state.last_v_i32f32 = if compensate {
-            v
-        } else {
-            i64::from(forward(state, u)) << 16
-        };
-        state.last_u = u;
-        ControlOutput {
-            u: SignalI16F16::from_raw(u),
-            region,
-            flags,
-        }
+    }
+
+    /// u_max, I16F16 raw.
+    fn u_max(&self) -> i32 {
+        (self.u_limit_i32f32 >> 16) as i32 // built from an I16F16 value
     }
 
     /// The laws' error: −m⁻¹(y − r) with an output map, else e = r − y (I16F16 raw quanta).
@@ -906,6 +1023,104 @@ impl ScheduledConfig {
         self.output_map
             .as_ref()
             .map_or(e, |m| m.apply(e.saturating_neg()).saturating_neg())
+    }
+}
+
+/// One sample's signals from the common front ([`ScheduledConfig::step_law`]), read by the
+/// region's law; I16F16 raw quanta unless named otherwise.
+#[derive(Clone, Copy)]
+struct Sample {
+    /// The reference, as given.
+    r: PositionI48F16,
+    /// The reading, as given.
+    y: PositionI48F16,
+    /// e = r − y on the reading (the decisions).
+    e: i32,
+    /// The laws' error, on the linear position.
+    e_lin: i32,
+    /// The linear position's change over the last sample.
+    dy1: i32,
+    /// v_r = r(k) − r(k−1).
+    dr1: i32,
+    /// Δv_r = v_r(k) − v_r(k−1).
+    ar: i32,
+    /// The velocity observer's v̂ (the seek observer's on leaving a time-optimal seek).
+    v_hat: i32,
+    /// The seek observer's error r − x̂ (time-optimal seeks only, else 0).
+    e_seek: i32,
+    /// The seek observer's velocity (time-optimal seeks only, else 0).
+    v_seek: i32,
+    /// Seeks are time-optimal.
+    time_optimal: bool,
+    /// The supervisor distrusts the model this sample.
+    distrusted: bool,
+    /// The model is refused or distrusted: the prior's gains, or the baseline PID, drive.
+    falling_back: bool,
+}
+
+/// The region of one sample and how it was reached.
+#[derive(Clone, Copy)]
+struct Selection {
+    previous: Region,
+    region: Region,
+    changed: bool,
+    verdict: Verdict,
+}
+
+impl Selection {
+    /// Seek → Settle this sample.
+    fn seek_to_settle(&self) -> bool {
+        self.changed && self.previous == Region::Seek && self.region == Region::Settle
+    }
+}
+
+/// A PID-type law's terms before the integrator.
+#[derive(Clone, Copy)]
+struct Terms {
+    /// The terms' sum, I32F32.
+    sum_i32f32: i64,
+    /// The settle integrator runs (else the integrator fades, as in Seek).
+    integrating: bool,
+    /// The input compensation applies.
+    compensate: bool,
+}
+
+/// The flags of one sample and whether any fixed-point narrowing saturated on the way.
+#[derive(Clone, Copy)]
+struct Tally {
+    flags: ControlFlags,
+    sat: bool,
+}
+
+impl Tally {
+    /// The drive `u` (I16F16 raw) in `region`, the sample's arithmetic saturation flagged.
+    fn finish(mut self, u: i32, region: Region) -> ControlOutput {
+        self.flags
+            .set_if(ControlFlags::ARITHMETIC_SATURATED, self.sat);
+        ControlOutput {
+            u: SignalI16F16::from_raw(u),
+            region,
+            flags: self.flags,
+        }
+    }
+}
+
+/// A redesign on entering Settle, and again while settling once the identifier has learnt from
+/// enough motion since the last one (a loop the prior's gains leave ringing keeps moving, and
+/// keeps informing the identifier, until the gains are redesigned).
+fn request_redesign_when_due(
+    state: &mut ScheduledState,
+    s: &Sample,
+    sel: &Selection,
+    flags: &mut ControlFlags,
+) {
+    let informed = sel.region == Region::Settle
+        && !s.distrusted
+        && state.trusted_updates >= SETTLE_REDESIGN_UPDATES
+        && !state.redesign_pending;
+    if sel.seek_to_settle() || informed {
+        state.redesign_pending = true;
+        flags.insert(ControlFlags::REDESIGN_REQUESTED);
     }
 }
 
