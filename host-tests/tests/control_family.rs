@@ -65,11 +65,13 @@ fn the_servo_holds_up_on_the_plant_family() {
             "seed {seed}: {}",
             s.worse_than_frozen
         );
-        assert!(
-            s.off_prior >= 150,
-            "seed {seed}: the family is wide: {}",
-            s.off_prior
-        );
+        // The populations the statistics below are over, from the seeded draws (measured 195 /
+        // 196 plants with a prior > 30 % off, 41 / 49 with friction ≥ 1.5× the prior's, seeds
+        // 1 / 7): exact, so a generator, a classification or an evaluation that drops or adds
+        // plants trips here rather than moving a statistic unseen (it was `≥ 150` and `≥ 30`).
+        let (off_prior, high_friction) = if seed == 1 { (195, 41) } else { (196, 49) };
+        assert_eq!(s.off_prior, off_prior, "seed {seed}");
+        assert_eq!(s.high_friction, high_friction, "seed {seed}");
         assert!(
             s.off_prior_gain_20 >= 0.75,
             "seed {seed}: {}",
@@ -84,7 +86,6 @@ fn the_servo_holds_up_on_the_plant_family() {
             "seed {seed}: {}",
             s.hold_true_error_max_quanta
         );
-        assert!(s.high_friction >= 30, "seed {seed}: {}", s.high_friction);
         // Every run of every variant to its schedule's end: 43,440,000 samples on seeds 1 and 7
         // (measured; 200 plants × 100 seeks, each dwell fixed). A run cut short (an error, a
         // schedule that ends early) lowers it; it was asserted only > 10⁷ before.
