@@ -723,10 +723,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 // The fit missed its sample: the record (complete, the experiment waits) is
                 // posted again.
                 servo.insert(ServoFlags::HANDOVER_MISSED);
-                state.fit.post(
-                    *state.calibration.record(),
-                    state.k.wrapping_add(cal.latency()),
-                );
+                post_fit(cal, state);
             }
         }
         let (u_raw, event) = state
@@ -734,12 +731,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             .step(cal, measured.map(PositionI48F16::raw));
         let mut u = SignalI16F16::from_raw(u_raw);
         match event {
-            calibration::experiment::Event::Recorded => {
-                state.fit.post(
-                    *state.calibration.record(),
-                    state.k.wrapping_add(cal.latency()),
-                );
-            }
+            calibration::experiment::Event::Recorded => post_fit(cal, state),
             calibration::experiment::Event::Refused(r) => {
                 state.safety.latch(StopReason::Calibration(r));
             }
@@ -780,6 +772,15 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             identifier: identified,
         }
     }
+}
+
+/// Posts calibration's record to the background fit, due `cal.latency()` samples from now (on
+/// the record's completion, and again when the fit missed its sample).
+fn post_fit<C: Controller, I: Identifier>(cal: &CalibrationConfig, state: &mut ServoState<C, I>) {
+    state.fit.post(
+        *state.calibration.record(),
+        state.k.wrapping_add(cal.latency()),
+    );
 }
 
 impl<C: Controller, I: Identifier> ServoState<C, I> {

@@ -753,7 +753,7 @@ impl ScheduledConfig {
             self.selector.hold_band_raw(),
             g.rest_samples,
             g.rest_speed_i16f16,
-            self.seek.is_some(),
+            s.time_optimal,
         );
         let previous = state.region;
         let mut region = self.selector.select(

@@ -46,10 +46,8 @@ pub struct CalibrationWatch {
     r: i64,
     /// Samples since it.
     since: u32,
-    /// Its budget T, samples.
+    /// Its budget T, samples (the seek error's, T_e, is T − [`REPORT_EARLIER`]).
     budget: u32,
-    /// The seek error's budget T_e, samples.
-    error_budget: u32,
     in_band: u16,
     settled: bool,
     /// Re-calibrated for this command already.
@@ -91,9 +89,9 @@ impl CalibrationWatch {
             self.resumed = false;
             // 2·d / v_max, both I16F16: the quotient is in samples.
             let travel = (e.min(1 << 47) as i64).saturating_mul(2) / self.v_max_i16f16.max(1);
-            let travel = u32::try_from(travel).unwrap_or(u32::MAX);
-            self.budget = travel.saturating_add(self.base);
-            self.error_budget = travel.saturating_add(self.base.saturating_sub(REPORT_EARLIER));
+            self.budget = u32::try_from(travel)
+                .unwrap_or(u32::MAX)
+                .saturating_add(self.base);
             return false;
         }
         self.since = self.since.saturating_add(1);
@@ -113,7 +111,9 @@ impl CalibrationWatch {
     /// The command in progress has not settled within the seek error's budget T_e: the reading
     /// is not (yet, or no longer) within 1 quantum for 22 samples in a row.
     pub const fn seek_error(&self) -> bool {
-        self.armed && self.since >= self.error_budget && self.in_band < SETTLED_SAMPLES
+        self.armed
+            && self.since >= self.budget.saturating_sub(REPORT_EARLIER)
+            && self.in_band < SETTLED_SAMPLES
     }
 
     /// The watch for a newly adopted calibration: armed from `model`; after a re-calibration
