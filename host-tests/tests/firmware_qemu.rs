@@ -1,8 +1,8 @@
-//! The firmware (`src/bin/firmware.rs`, binary `sledid-fw`) under QEMU in the loop with the sled
+//! The firmware (`firmware/src/main.rs`, binary `sledid-fw`) under QEMU in the loop with the sled
 //! twin (processor in the loop, `sledid_host::pil`), bit-exact with the host's closed loop of the
 //! same library code, plant, seed and configuration words.
 //!
-//! - `loop_words_are_up_to_date`: the committed `src/bin/firmware/loop_words.rs` (the
+//! - `loop_words_are_up_to_date`: the committed `firmware/src/loop_words.rs` (the
 //!   configuration the firmware decodes, `sledid::words`) is exactly what `pil::design()` gives
 //!   now, and the committed bench trace `fixtures/pil_trace.bin` is exactly the host closed loop
 //!   of those words (the first 3 seeks). `SLEDID_WRITE_CONFIG=1` regenerates both after a change
@@ -33,9 +33,7 @@ use sledid::error::ConfigError;
 use sledid::servo::{SERVO_WORDS_MAX, ServoFlags, SledServo};
 use sledid::words::{WordWriter, Words};
 use sledid::{PositionI48F16, Sample, SignalI16F16};
-use sledid_host::pil::fw_config::{
-    self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame,
-};
+use sledid_firmware::{self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame};
 use sledid_host::pil::{self, Core, Faults, PilRun, Record};
 use sledid_host::twin::TwinParams;
 
@@ -44,7 +42,7 @@ const TRACE_SEEKS: u32 = 3;
 
 /// The generated file of the firmware's configuration words.
 fn loop_words_path() -> PathBuf {
-    pil::workspace().join("src/bin/firmware/loop_words.rs")
+    pil::workspace().join("firmware/src/loop_words.rs")
 }
 
 /// The committed bench trace.
@@ -96,7 +94,7 @@ fn trace_bytes() -> Vec<u8> {
         })
         .collect();
     let mut bytes = Vec::new();
-    fw_config::recording::encode(&samples, |b| bytes.push(b))
+    sledid_firmware::recording::encode(&samples, |b| bytes.push(b))
         .expect("every sample fits the trace's layout");
     bytes
 }
@@ -118,13 +116,13 @@ fn loop_words_are_up_to_date() {
     let committed = std::fs::read_to_string(loop_words_path()).expect("loop_words.rs is committed");
     assert_eq!(
         committed, text,
-        "src/bin/firmware/loop_words.rs is stale: regenerate with SLEDID_WRITE_CONFIG=1"
+        "firmware/src/loop_words.rs is stale: regenerate with SLEDID_WRITE_CONFIG=1"
     );
-    assert_eq!(fw_config::LOOP_WORDS.as_slice(), words.as_slice());
+    assert_eq!(sledid_firmware::LOOP_WORDS.as_slice(), words.as_slice());
     let built = pil::design()
         .and_then(|d| d.build().map_err(|e| e.to_string()))
         .expect("the design builds");
-    assert_eq!(fw_config::config(), Ok(built));
+    assert_eq!(sledid_firmware::config(), Ok(built));
     assert_eq!(
         u32::from(pil::HANDOVER_LATENCY),
         built.handover_latency(),
@@ -159,7 +157,7 @@ fn resealed(mut words: Vec<u32>) -> Vec<u32> {
 #[test]
 fn altered_loop_words_are_refused() {
     let words = design_words();
-    assert_eq!(words.as_slice(), fw_config::LOOP_WORDS.as_slice());
+    assert_eq!(words.as_slice(), sledid_firmware::LOOP_WORDS.as_slice());
     for n in 0..words.len() {
         let refused = SledServo::from_words(&words[..n]);
         assert!(
@@ -195,7 +193,7 @@ fn altered_loop_words_are_refused() {
     println!("{flips} single-bit flips, every one refused");
     let mut slot = None;
     assert_eq!(SledServo::from_words_into(&words, &mut slot), Ok(()));
-    assert_eq!(slot, fw_config::config().ok());
+    assert_eq!(slot, sledid_firmware::config().ok());
     assert!(SledServo::from_words_into(&words[..words.len() - 1], &mut slot).is_err());
     assert_eq!(slot, None);
 }
@@ -265,7 +263,7 @@ fn resealed_invalid_values_are_refused_by_the_build_checks() {
             Err(_) => refused += 1,
             Ok(config) if trial % 50 == 0 => {
                 let mut state = config.new_state();
-                let mut cursor = fw_config::recording::Cursor::new();
+                let mut cursor = sledid_firmware::recording::Cursor::new();
                 for _ in 0..64 {
                     let s = cursor.next(&trace).expect("record");
                     config.step(&mut state, s.r, s.y);
@@ -346,8 +344,8 @@ fn recording_codec_round_trips_and_refuses() {
         sample(i64::from(i32::MIN), max_r, i32::from(i16::MIN)),
     ];
     let mut bytes = Vec::new();
-    fw_config::recording::encode(&edges, |b| bytes.push(b)).expect("edges fit");
-    let mut cursor = fw_config::recording::Cursor::new();
+    sledid_firmware::recording::encode(&edges, |b| bytes.push(b)).expect("edges fit");
+    let mut cursor = sledid_firmware::recording::Cursor::new();
     for (i, s) in edges.iter().enumerate() {
         assert_eq!(cursor.next(&bytes).as_ref(), Some(s), "edge {i}");
     }
@@ -363,14 +361,14 @@ fn recording_codec_round_trips_and_refuses() {
         sample(0, 0, 1 << 15),
     ] {
         assert_eq!(
-            fw_config::recording::encode(&[bad], |_| {}),
+            sledid_firmware::recording::encode(&[bad], |_| {}),
             None,
             "{bad:?}"
         );
     }
     // Cut bytes: the records before the cut, then None, and the cursor stays put.
     for cut in 0..bytes.len() {
-        let mut cursor = fw_config::recording::Cursor::new();
+        let mut cursor = sledid_firmware::recording::Cursor::new();
         let mut n = 0;
         while cursor.next(&bytes[..cut]).is_some() {
             n += 1;
@@ -390,7 +388,7 @@ fn recording_codec_round_trips_and_refuses() {
         let mut bad = trace.clone();
         let at = (x as usize) % bad.len();
         bad[at] ^= (x >> 32) as u8 | 1;
-        let mut cursor = fw_config::recording::Cursor::new();
+        let mut cursor = sledid_firmware::recording::Cursor::new();
         while cursor.next(&bad).is_some() {}
         assert!(cursor.index() <= bad.len() / 3);
     }

@@ -200,11 +200,24 @@ fn test() -> bool {
     ];
     for t in THUMB_TARGETS {
         steps.push(vec![
-            "clippy", "--lib", "--bins", "--target", t, "--", "-D", "warnings",
+            "clippy",
+            "-p",
+            "sledid",
+            "-p",
+            "sledid-firmware",
+            "--lib",
+            "--bins",
+            "--target",
+            t,
+            "--",
+            "-D",
+            "warnings",
         ]);
         // The firmware's count_insns.py entry points (not in the shipped image).
         steps.push(vec![
             "clippy",
+            "-p",
+            "sledid-firmware",
             "--bins",
             "--target",
             t,
@@ -214,7 +227,15 @@ fn test() -> bool {
             "-D",
             "warnings",
         ]);
-        steps.push(vec!["build", "--lib", "--release", "--target", t]);
+        steps.push(vec![
+            "build",
+            "-p",
+            "sledid",
+            "--lib",
+            "--release",
+            "--target",
+            t,
+        ]);
     }
     steps.push(vec!["test", "--workspace"]);
     steps.iter().all(|s| cargo(s))
@@ -226,7 +247,17 @@ fn test() -> bool {
         // The library's and the harness's docs: every intra-doc link resolves, nothing public
         // links a private item.
         && cargo_env(
-            &["doc", "--no-deps", "--lib", "-p", "sledid", "-p", "sledid-host"],
+            &[
+                "doc",
+                "--no-deps",
+                "--lib",
+                "-p",
+                "sledid",
+                "-p",
+                "sledid-firmware",
+                "-p",
+                "sledid-host",
+            ],
             &[("RUSTDOCFLAGS", "-D warnings")],
         )
         && fuzz(20_000)
@@ -355,6 +386,8 @@ fn cost_firmware() -> bool {
                 "build",
                 "--profile",
                 "firmware",
+                "-p",
+                "sledid-firmware",
                 "--features",
                 "fw-bench",
                 "--target",
@@ -402,7 +435,7 @@ fn cost_firmware() -> bool {
             "--profile",
             "firmware",
             "-p",
-            "sledid",
+            "sledid-firmware",
             "--bin",
             "sledid-fw",
             "--target",

@@ -1,5 +1,5 @@
 //! `sledid-stm32f411`: the servo on a board — an STM32F411CE (the WeAct "Black Pill") at 72 MHz,
-//! the part the QEMU Cortex-M4F image is built for (`fw_config::PART_M4F`).
+//! the part the QEMU Cortex-M4F image is built for (`sledid_firmware::PART_M4F`).
 //!
 //! The same loop as the PIL image, on real pins through the HAL (`stm32f4xx-hal`):
 //! - SysTick every Ts = 0.455 ms (reload 32,759 at 72 MHz): the interrupt reads the encoder,
@@ -15,7 +15,7 @@
 //! - the reference: a demonstration that alternates between two targets every half second (an
 //!   application sets r from its own seek commands).
 //!
-//! Its configuration is the QEMU images' words (`src/bin/firmware/loop_words.rs`), designed on
+//! Its configuration is the QEMU images' words (`firmware/src/loop_words.rs`), designed on
 //! the twin's sled: on another sled, design and generate words for it first. Logs (defmt over
 //! RTT) once a second: samples, overruns, the longest handler in cycles, the region. Flash with
 //! probe-rs (README: "Firmware on a board").
@@ -23,12 +23,6 @@
 #![no_main]
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-
-#[path = "../../../src/bin/firmware/config.rs"]
-#[allow(dead_code)] // the PIL link's frames and ticker are the QEMU image's
-mod fw_config;
-#[path = "../../../src/bin/firmware/timing.rs"]
-mod timing;
 
 use core::cell::RefCell;
 use core::convert::Infallible;
@@ -47,11 +41,11 @@ use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::timer::ErasedChannel;
 
-use fw_config::Part;
-use timing::Timing;
+use sledid_firmware::Part;
+use sledid_firmware::timing::Timing;
 
 /// The part and clock.
-const PART: Part = fw_config::PART_M4F;
+const PART: Part = sledid_firmware::PART_M4F;
 /// SysTick reload for Ts on the core clock.
 const SYST_RELOAD: u32 = PART.syst_reload();
 /// The Black Pill's crystal.
@@ -151,7 +145,7 @@ fn main() -> ! {
     let Some(slot) = cortex_m::singleton!(CONFIG: Option<SledServo> = None) else {
         defmt::panic!("configured twice");
     };
-    if let Err(e) = fw_config::config_into(slot) {
+    if let Err(e) = sledid_firmware::config_into(slot) {
         defmt::panic!("the configuration words do not decode: {}", e);
     }
     let Some(config) = slot.as_ref() else {
@@ -162,7 +156,7 @@ fn main() -> ! {
     dcb.enable_trace();
     dwt.enable_cycle_counter();
     let mut syst = cp.SYST;
-    timing::start_sample_clock(&mut syst, SYST_RELOAD);
+    sledid_firmware::timing::start_sample_clock(&mut syst, SYST_RELOAD);
     let Some(board) = cortex_m::singleton!(BOARD_STATE: Option<Board> = None) else {
         defmt::panic!("built twice");
     };

@@ -1,5 +1,5 @@
 //! The host's end of the PIL link: the firmware image under `qemu-system-arm -icount`, two FIFOs
-//! in QEMU's working directory (`fw_config::LINK_DOWN`, `LINK_UP`), a watchdog, and the defmt log.
+//! in QEMU's working directory (`sledid_firmware::LINK_DOWN`, `LINK_UP`), a watchdog, and the defmt log.
 //!
 //! QEMU runs with `-icount shift=6,sleep=off`: virtual time advances 64 ns per instruction and
 //! jumps over idle periods, so the firmware sees the same timing whatever the host's speed, and a
@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
-use super::fw_config::{DownFrame, LINK_DOWN, LINK_UP, UP_FRAME_BYTES, UpFrame};
+use sledid_firmware::{DownFrame, LINK_DOWN, LINK_UP, UP_FRAME_BYTES, UpFrame};
 
 /// A firmware target: its Rust target, QEMU's CPU and machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -1,6 +1,6 @@
-//! Processor in the loop (PIL): the firmware image (`src/bin/firmware.rs`) under QEMU closes the
+//! Processor in the loop (PIL): the firmware image (`firmware/src/main.rs`) under QEMU closes the
 //! loop around the sled twin running here, and every answer it gives is checked against the host
-//! running the same interrupt body ([`fw_config::Ticker`]) on the same configuration words.
+//! running the same interrupt body ([`sledid_firmware::Ticker`]) on the same configuration words.
 //!
 //! # One sample period
 //! ```text
@@ -17,7 +17,7 @@
 //! the first difference stops the run and names the sample.
 //!
 //! # Faults the host injects ([`Faults`])
-//! Carried in the down frame's command word (`fw_config::Command`), decided from the host's
+//! Carried in the down frame's command word (`sledid_firmware::Command`), decided from the host's
 //! reference alone, so that the host-only run makes the same decisions:
 //! - a slow background: the target hands a job's result back only after `delay` more samples
 //!   (L − 1: still adopted at k + L; L: the hand-over misses, the old gains stay, flagged);
@@ -26,12 +26,10 @@
 //!
 //! The configuration is [`design`]: the scheduled controller tuned on the default twin's sled
 //! (`crate::control_eval::scheduled_design_for`, at the sled's Ts = 0.455 ms) with the hand-over
-//! latency [`HANDOVER_LATENCY`]; its words are `src/bin/firmware/loop_words.rs`
+//! latency [`HANDOVER_LATENCY`]; its words are `firmware/src/loop_words.rs`
 //! (`SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`).
 
 mod cli;
-#[path = "../../../src/bin/firmware/config.rs"]
-pub mod fw_config;
 pub mod link;
 
 use std::path::{Path, PathBuf};
@@ -45,8 +43,10 @@ use crate::control::design::scheduled_design_for;
 use crate::reference::control::position_from_quanta;
 use crate::twin::{SledController, Twin, TwinParams};
 pub use cli::{PilArgs, pil_cmd};
-use fw_config::{Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame};
 pub use link::{Core, QemuLink};
+use sledid_firmware::{
+    Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
+};
 
 /// L, the firmware's hand-over latency: a redesign requested by sample k is adopted at k + 12
 /// (5.5 ms). The background gets what the interrupt leaves of each period, and one redesign
@@ -103,7 +103,7 @@ pub fn design_words() -> Result<Vec<u32>, String> {
 /// # Errors
 /// When the committed words do not decode.
 pub fn firmware_config() -> Result<SledServo, String> {
-    fw_config::config().map_err(|e| format!("src/bin/firmware/loop_words.rs: {e}"))
+    sledid_firmware::config().map_err(|e| format!("firmware/src/loop_words.rs: {e}"))
 }
 
 /// The faults a run injects (module doc). Sample indices count from 0; jobs in the order they
@@ -414,7 +414,7 @@ pub fn build_firmware() -> Result<(), String> {
         "--profile",
         "firmware",
         "-p",
-        "sledid",
+        "sledid-firmware",
         "--bin",
         "sledid-fw",
     ]);
@@ -435,7 +435,7 @@ pub fn build_firmware() -> Result<(), String> {
     }
 }
 
-/// The firmware's timing line (`fw_config::TIMING_PREFIX`).
+/// The firmware's timing line (`sledid_firmware::TIMING_PREFIX`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Timing {
     /// The part's core clock, Hz.
@@ -445,7 +445,7 @@ pub struct Timing {
     /// Overruns the host asked for.
     pub stalls: u32,
     /// Longest handler that did not overrun, SysTick ticks (under QEMU: virtual time at the
-    /// emulated board's SysTick clock, see `src/bin/firmware.rs`).
+    /// emulated board's SysTick clock, see `firmware/src/main.rs`).
     pub max_ticks: u32,
     /// Longest handler by the DWT cycle counter (0 on Cortex-M0 and under QEMU).
     pub dwt_max_cycles: u32,

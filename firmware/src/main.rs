@@ -2,9 +2,9 @@
 //! (processor in the loop, PIL).
 //!
 //! SysTick fires once per sled sample period (Ts = 0.455 ms on the part's core clock:
-//! [`fw_config::PART_M4F`], [`fw_config::PART_M0PLUS`]). Its handler reads the period's frame from
+//! [`sledid_firmware::PART_M4F`], [`sledid_firmware::PART_M0PLUS`]). Its handler reads the period's frame from
 //! the host (reference r(k), quantised position y(k)), runs the servo's step behind the
-//! embedded-hal boundary ([`fw_config::Ticker`]: `sledid::servo::hal::ControlLoop`, position in,
+//! embedded-hal boundary ([`sledid_firmware::Ticker`]: `sledid::servo::hal::ControlLoop`, position in,
 //! PWM + direction pin out), answers with the drive and the step's flags, and posts the
 //! redesign job a step asks for. The main loop is the background: it computes the redesign (f32)
 //! and hands the result back; the handler adopts it at sample k + L, where L is the configuration
@@ -13,7 +13,7 @@
 //! [`sledid::words`]).
 //!
 //! # The link
-//! Two FIFOs in QEMU's working directory ([`fw_config::LINK_DOWN`], [`fw_config::LINK_UP`]),
+//! Two FIFOs in QEMU's working directory ([`sledid_firmware::LINK_DOWN`], [`sledid_firmware::LINK_UP`]),
 //! opened through semihosting; `host-tests/src/pil` creates them, runs QEMU with
 //! `-icount shift=6,sleep=off` and steps the twin. A semihosting call stops the emulator until
 //! the host answers and costs one instruction of virtual time, so under `-icount` the link
@@ -25,13 +25,13 @@
 //! (`BENCHMARKS.md`).
 //!
 //! # Overruns
-//! [`timing`]: SysTick's COUNTFLAG, set again before the handler ends, is an overrun, counted
+//! [`sledid_firmware::timing`] (on target): SysTick's COUNTFLAG, set again before the handler ends, is an overrun, counted
 //! (result line); the handler's length in SysTick ticks (core cycles on a part) and on
 //! Cortex-M4 in DWT cycles (QEMU does not model the DWT: there that count stays 0) go into the
 //! timing line.
 //!
 //! # Output (defmt frames on semihosting stdout)
-//! The result line ([`fw_config::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
+//! The result line ([`sledid_firmware::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
 //! identifier's final θ), which the host's reference must equal
 //! (it expects one overrun per stall it asked for), and the timing line: `clock_hz=… reload=…
 //! stalls=… max_ticks=… dwt_max_cycles=… late_dropped=… stack=used/size link_ok=…` (the part's
@@ -50,14 +50,6 @@
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-#[path = "firmware/config.rs"]
-#[cfg_attr(not(target_os = "none"), allow(dead_code))] // the host build only prints the words
-mod fw_config;
-
-#[cfg(target_os = "none")]
-#[path = "firmware/timing.rs"]
-mod timing;
-
 #[cfg(target_os = "none")]
 mod target {
     use core::cell::RefCell;
@@ -71,18 +63,18 @@ mod target {
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
     use sledid::servo::{Posted, ServoFlags, SledServo};
 
-    use super::fw_config::{
-        self, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX,
-        TIMING_PREFIX, Ticker, UpFrame,
+    use sledid_firmware::timing::Timing;
+    use sledid_firmware::{
+        DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX, TIMING_PREFIX,
+        Ticker, UpFrame,
     };
-    use super::timing::Timing;
 
     /// The part this image is built for.
     #[cfg(target_abi = "eabihf")]
-    const PART: Part = fw_config::PART_M4F;
+    const PART: Part = sledid_firmware::PART_M4F;
     /// The part this image is built for.
     #[cfg(not(target_abi = "eabihf"))]
-    const PART: Part = fw_config::PART_M0PLUS;
+    const PART: Part = sledid_firmware::PART_M0PLUS;
 
     /// SysTick reload for one sample period on [`PART`]'s clock: 32,759 at 72 MHz, 21,839 at
     /// 48 MHz.
@@ -149,11 +141,11 @@ mod target {
         /// The clocks.
         timing: Timing,
         /// For the job the last step posted: hand its result back only once this many samples
-        /// have been stepped (the host's fault injection, [`fw_config::Command::delay`]).
+        /// have been stepped (the host's fault injection, [`sledid_firmware::Command::delay`]).
         release_at: u32,
         /// Samples stepped so far.
         stepped: u32,
-        /// Overruns the host asked for ([`fw_config::Command::stall`]).
+        /// Overruns the host asked for ([`sledid_firmware::Command::stall`]).
         stalls: u32,
         /// Set once the run has ended (false: the link failed, the host went away or sent a bad
         /// frame): the handler returns at once from then on.
@@ -279,7 +271,7 @@ mod target {
     #[inline(never)]
     fn install_config() -> Option<&'static SledServo> {
         let slot = cortex_m::singleton!(CONFIG: Option<SledServo> = None)?;
-        fw_config::config_into(slot).ok()?;
+        sledid_firmware::config_into(slot).ok()?;
         slot.as_ref()
     }
 
@@ -407,7 +399,7 @@ mod target {
             dwt.enable_cycle_counter();
         }
         let mut syst = cp.SYST;
-        super::timing::start_sample_clock(&mut syst, SYST_RELOAD);
+        sledid_firmware::timing::start_sample_clock(&mut syst, SYST_RELOAD);
         // The handler owns SYST from here on; until the loop is built it does nothing.
         let Some(state) = install(config, link, syst) else {
             return false;
@@ -455,8 +447,8 @@ mod target {
         use sledid::control::scheduled::{RedesignJob, RedesignResult};
         use sledid::servo::{Posted, SledServo};
 
-        use super::super::fw_config::recording::Cursor;
-        use super::super::fw_config::{self, Command, DownFrame, Kind, Ticker};
+        use sledid_firmware::recording::Cursor;
+        use sledid_firmware::{Command, DownFrame, Kind, Ticker};
 
         /// A closed-loop run of the PIL's configuration on the twin (`fixtures/pil_trace.bin`:
         /// r and y of every sample, the recording codec with u = 0).
@@ -496,7 +488,7 @@ mod target {
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
-            let Ok(config) = fw_config::config() else {
+            let Ok(config) = sledid_firmware::config() else {
                 return;
             };
             let mut results = [None; RESULTS];
@@ -608,12 +600,12 @@ mod target {
 /// Host build: prints the configuration the committed words decode to.
 #[cfg(not(target_os = "none"))]
 fn main() {
-    use fw_config::{PART_M0PLUS, PART_M4F, SAMPLE_PERIOD_NS};
-    match fw_config::config() {
+    use sledid_firmware::{PART_M0PLUS, PART_M4F, SAMPLE_PERIOD_NS};
+    match sledid_firmware::config() {
         Ok(config) => println!(
-            "sledid-fw (host build): configuration words (src/bin/firmware/loop_words.rs, {} words) \
+            "sledid-fw (host build): configuration words (firmware/src/loop_words.rs, {} words) \
              decode to:\n{config:#?}",
-            fw_config::LOOP_WORDS.len()
+            sledid_firmware::LOOP_WORDS.len()
         ),
         Err(e) => {
             eprintln!(

@@ -1,4 +1,4 @@
-//! The sample interrupt's clocks, shared by the QEMU image (`src/bin/firmware.rs`) and the board
+//! The sample interrupt's clocks, shared by the QEMU image (`firmware/src/main.rs`) and the board
 //! image (`boards/stm32f411`): overrun detection with SysTick's COUNTFLAG on every core, the
 //! handler's length in SysTick ticks, and on Cortex-M4 the DWT cycle counter.
 //!
