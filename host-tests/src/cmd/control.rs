@@ -1,6 +1,7 @@
-//! `sledid control`: the twin in closed loop with the library's controller — the paper's baseline
-//! PID, or the servo (gain-scheduled controller fed by the on-line identifier) designed from a
-//! prior plant only, never from the plant it runs on.
+//! `sledid control`: the twin in closed loop with the library's controller, designed from a prior
+//! plant only, never from the plant it runs on — by default the product's servo (power-on
+//! calibration, then random seek commands in its seek mode: `sledid seek`'s run and outputs); or
+//! the same servo following the paper's S-curve references, or the paper's baseline PID.
 
 use sledid::servo::{Identification, ServoOptions};
 use sledid_host::control::inject::ServoFault;
@@ -12,9 +13,15 @@ use std::path::PathBuf;
 /// `--controller`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum ControllerArg {
-    /// The paper's badly tuned PID.
+    /// The product's servo: power-on calibration, then each command a step in its seek mode
+    /// (time-optimal seek, settle, hold) — `sledid seek`'s run: summary.json as `sledid seek`
+    /// writes it (beside the reference-following servo on the same seeks), seek_vs_distance.png,
+    /// seek_steps.png.
+    Seek,
+    /// The paper's badly tuned PID following the S-curve references.
     Baseline,
-    /// The servo: gain-scheduled controller and on-line identifier.
+    /// The servo (gain-scheduled controller and on-line identifier) following the paper's 30 ms
+    /// S-curve references, without calibration.
     Scheduled,
 }
 
@@ -43,7 +50,7 @@ pub struct Args {
     #[arg(long)]
     pub perturb: Option<String>,
     /// Which controller.
-    #[arg(long, value_enum, default_value = "scheduled")]
+    #[arg(long, value_enum, default_value = "seek")]
     pub controller: ControllerArg,
     /// The servo's identification: on-line, or frozen at the prior.
     #[arg(long, value_enum, default_value = "online")]
@@ -59,12 +66,13 @@ pub struct Args {
     /// the first sample). `safe_stop` in the summary says what stopped the servo, where.
     #[arg(long)]
     pub inject: Vec<String>,
-    /// Output directory: summary.json, step_responses.png.
+    /// Output directory: summary.json, and step_responses.png (`baseline`, `scheduled`) or
+    /// seek_vs_distance.png and seek_steps.png (`seek`).
     #[arg(long)]
     pub out: PathBuf,
 }
 
-/// Runs the command: writes `DIR/summary.json` and `DIR/step_responses.png`, prints the summary.
+/// Runs the command: writes `DIR/summary.json` and the figures (`Args::out`), prints the summary.
 ///
 /// # Errors
 /// Parameter, run, file or plot errors.
@@ -81,6 +89,25 @@ pub fn run(a: &Args) -> Result<(), String> {
         .unwrap_or_default();
     let params = perturb.apply(&plant);
     params.validate().map_err(|e| e.to_string())?;
+    if let ControllerArg::Seek = a.controller {
+        let seek = super::seek::Args {
+            plant: None,
+            prior: None,
+            seeks: a.seeks,
+            distances: super::seek::DISTANCES.to_owned(),
+            seed: a.seed,
+            controller: super::seek::SeekControllerArg::Seek,
+            dwell_ms: super::seek::DWELL_MS,
+            identification: match a.identification {
+                IdentificationArg::Online => super::seek::IdentificationArg::Online,
+                IdentificationArg::Frozen => super::seek::IdentificationArg::Frozen,
+            },
+            no_calibrate: false,
+            inject: a.inject.clone(),
+            out: a.out.clone(),
+        };
+        return super::seek::run_on(&params, &prior, false, &seek);
+    }
     let options = ServoOptions {
         identification: match a.identification {
             IdentificationArg::Online => Identification::OnLine,
@@ -90,7 +117,9 @@ pub fn run(a: &Args) -> Result<(), String> {
     };
     let design = match a.controller {
         ControllerArg::Baseline => None,
-        ControllerArg::Scheduled => Some(design_from_prior(&params, &prior.plant)?),
+        ControllerArg::Scheduled | ControllerArg::Seek => {
+            Some(design_from_prior(&params, &prior.plant)?)
+        }
     };
     let faults: Vec<ServoFault> = a
         .inject

@@ -13,6 +13,11 @@ use sledid_host::control::{design_from_prior, plot};
 use sledid_host::twin::{PlantParams, TwinParams};
 use std::path::PathBuf;
 
+/// `--distances`' default, tracks.
+pub const DISTANCES: &str = "20:2000";
+/// `--dwell-ms`' default.
+pub const DWELL_MS: f64 = 300.0;
+
 /// `--controller`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum SeekControllerArg {
@@ -50,7 +55,7 @@ pub struct Args {
     #[arg(long, default_value_t = 100)]
     pub seeks: u32,
     /// Seek distances MIN:MAX, tracks (log-uniform, random sign, within the travel).
-    #[arg(long, default_value = "20:2000")]
+    #[arg(long, default_value = DISTANCES)]
     pub distances: String,
     /// Seed of the seeks and the sensor noise.
     #[arg(long, default_value_t = 1)]
@@ -60,7 +65,7 @@ pub struct Args {
     pub controller: SeekControllerArg,
     /// Shortest dwell after each command (after the S-curve's arrival when following it), ms;
     /// lengthened on a slow sled to 3× the bound of the longest seek + 10 ms.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = DWELL_MS)]
     pub dwell_ms: f64,
     /// `frozen`: the servo's identifier never adapts (with `--prior` the plant's own file, the
     /// seek law alone on the exact model).
@@ -136,6 +141,21 @@ pub fn run(a: &Args) -> Result<(), String> {
         Some(_) if exact_prior => params.clone(),
         p => p.as_ref().map(read).transpose()?.unwrap_or_default(),
     };
+    run_on(&params, &prior, exact_prior, a)
+}
+
+/// [`run`] on `params` (the twin) with the servo designed from `prior`'s plant (`exact_prior`:
+/// `prior` is the plant itself, trusted as an identified model); `a`'s `plant` and `prior` are
+/// not read (`sledid control` passes a perturbed plant).
+///
+/// # Errors
+/// As [`run`].
+pub fn run_on(
+    params: &TwinParams,
+    prior: &TwinParams,
+    exact_prior: bool,
+    a: &Args,
+) -> Result<(), String> {
     let (min_tracks, max_tracks) = SeekOptions::parse_distances(&a.distances)?;
     if a.seeks == 0 {
         return Err("--seeks 0: need at least one seek".to_owned());
@@ -152,7 +172,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         frozen: a.identification == IdentificationArg::Frozen,
         calibrate: !a.no_calibrate && !exact_prior,
     };
-    let design = design_from_prior(&params, &prior.plant)?;
+    let design = design_from_prior(params, &prior.plant)?;
     let under_test = match a.controller {
         SeekControllerArg::Seek if exact_prior => {
             SeekController::Seek(seek_design(design).with_trusted_prior())
@@ -166,11 +186,11 @@ pub fn run(a: &Args) -> Result<(), String> {
         .iter()
         .map(|s| s.parse())
         .collect::<Result<_, _>>()?;
-    let tested = run_seeks_with_faults(&params, &under_test, &schedule, &faults)?;
+    let tested = run_seeks_with_faults(params, &under_test, &schedule, &faults)?;
     let reference = match under_test {
         SeekController::Reference(_) => None,
         _ => Some(run_seeks_with_faults(
-            &params,
+            params,
             &SeekController::Reference(design),
             &schedule,
             &faults,
