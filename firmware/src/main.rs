@@ -31,11 +31,11 @@
 //! timing line.
 //!
 //! # Output (defmt frames on semihosting stdout)
-//! The result line ([`sledid_firmware::Summary`]: samples, hand-overs, redesign outcomes, overruns, the
-//! identifier's final θ), which the host's reference must equal
-//! (it expects one overrun per stall it asked for), and the timing line: `clock_hz=… reload=…
-//! stalls=… max_ticks=… dwt_max_cycles=… late_dropped=… stack=used/size link_ok=…` (the part's
-//! name is on the first line).
+//! The result line ([`sledid_firmware::Summary`]: samples, hand-overs, redesign outcomes,
+//! overruns, the safety layer's stop — reason and sample — and the identifier's final θ), which
+//! the host's reference must equal (it expects one overrun per stall it asked for), and the timing line:
+//! `clock_hz=… reload=… stalls=… max_ticks=… dwt_max_cycles=… late_dropped=…
+//! stack=used/size link_ok=…` (the part's name is on the first line).
 //!
 //! ```text
 //! cargo xtask pil          # both images under QEMU, 20 seeks each, checked against the host
@@ -327,6 +327,19 @@ mod target {
         }
     }
 
+    /// The result line's `stop=` field: `none`, or `reason@k` (as [`sledid_firmware::Stop`]
+    /// displays).
+    struct StopField(Option<sledid_firmware::Stop>);
+
+    impl defmt::Format for StopField {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.0 {
+                None => defmt::write!(f, "none"),
+                Some(stop) => defmt::write!(f, "{=str}@{=u32}", stop.reason.name(), stop.k),
+            }
+        }
+    }
+
     /// The result and timing lines.
     #[inline(never)]
     fn report(late: u32) -> bool {
@@ -343,7 +356,7 @@ mod target {
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
             "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
-             redesigns={} overruns={=u32} theta={}",
+             redesigns={} overruns={=u32} stop={} theta={}",
             RESULT_PREFIX,
             s.samples,
             s.lost,
@@ -351,6 +364,7 @@ mod target {
             s.handover,
             s.redesigns,
             t.overruns,
+            StopField(s.stop),
             s.theta_raw
         );
         defmt::println!(

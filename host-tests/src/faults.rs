@@ -12,7 +12,10 @@
 //! | `nan` | `at` | y = NaN at `at` |
 //! | `flip` | `from` | y's sign reversed from `from` on (a reversed sensor) |
 
+pub mod spec;
+
 use crate::recording::Sample;
+use spec::Spec;
 
 /// One fault.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,73 +64,47 @@ pub enum Reading {
     Missing,
 }
 
-fn key<T: std::str::FromStr>(pairs: &[(&str, &str)], name: &str, spec: &str) -> Result<T, String> {
-    let (_, v) = pairs
-        .iter()
-        .find(|(k, _)| *k == name)
-        .ok_or_else(|| format!("--inject `{spec}`: missing `{name}=`"))?;
-    v.parse::<T>()
-        .map_err(|_| format!("--inject `{spec}`: `{name}={v}` is not a valid value"))
-}
-
 impl std::str::FromStr for Fault {
     type Err = String;
-    fn from_str(spec: &str) -> Result<Self, String> {
-        let (kind, rest) = spec.split_once(':').unwrap_or((spec, ""));
-        let pairs: Vec<(&str, &str)> = rest
-            .split(',')
-            .filter(|p| !p.is_empty())
-            .map(|p| {
-                p.split_once('=')
-                    .ok_or_else(|| format!("--inject `{spec}`: `{p}` is not key=value"))
-            })
-            .collect::<Result<_, _>>()?;
-        let known: &[&str] = match kind {
+    fn from_str(text: &str) -> Result<Self, String> {
+        let spec = Spec::parse(text)?;
+        let known: &[&str] = match spec.kind {
             "spike" => &["at", "mag", "every"],
             "stuck" | "missing" => &["from", "len"],
             "nan" => &["at"],
             "flip" => &["from"],
             other => {
-                return Err(format!(
-                    "--inject `{spec}`: unknown fault `{other}` (spike, stuck, missing, nan, flip)"
-                ));
+                return Err(spec.error(format_args!(
+                    "unknown fault `{other}` (spike, stuck, missing, nan, flip)"
+                )));
             }
         };
-        if let Some((k, _)) = pairs.iter().find(|(k, _)| !known.contains(k)) {
-            return Err(format!(
-                "--inject `{spec}`: unknown key `{k}` for `{kind}` (keys: {})",
-                known.join(", ")
-            ));
-        }
-        let fault = match kind {
+        spec.only_keys(known)?;
+        let fault = match spec.kind {
             "spike" => Fault::Spike {
-                at: key(&pairs, "at", spec)?,
-                mag: key(&pairs, "mag", spec)?,
-                every: if pairs.iter().any(|(k, _)| *k == "every") {
-                    key(&pairs, "every", spec)?
-                } else {
-                    0
-                },
+                at: spec.value("at")?,
+                mag: spec.value("mag")?,
+                every: spec.value_or("every", 0)?,
             },
             "stuck" => Fault::Stuck {
-                from: key(&pairs, "from", spec)?,
-                len: key(&pairs, "len", spec)?,
+                from: spec.value("from")?,
+                len: spec.value("len")?,
             },
             "missing" => Fault::Missing {
-                from: key(&pairs, "from", spec)?,
-                len: key(&pairs, "len", spec)?,
+                from: spec.value("from")?,
+                len: spec.value("len")?,
             },
             "nan" => Fault::NotFinite {
-                at: key(&pairs, "at", spec)?,
+                at: spec.value("at")?,
             },
             _ => Fault::Flip {
-                from: key(&pairs, "from", spec)?,
+                from: spec.value("from")?,
             },
         };
         if let Fault::Spike { mag, .. } = fault
             && !mag.is_finite()
         {
-            return Err(format!("--inject `{spec}`: mag must be finite"));
+            return Err(spec.error("mag must be finite"));
         }
         Ok(fault)
     }

@@ -15,6 +15,10 @@
 //! - `lockstep_stops_at_the_first_difference`: the PIL's comparison names the first sample a
 //!   target answers differently (a fake target that flips one bit).
 //! - `host_closed_loop_settles_every_seek`: the host's run of the words on the twin.
+//! - `injected_reversals_stop_the_host_loop`,
+//!   `outcome_check_refuses_what_the_faults_do_not_explain`,
+//!   `injected_plant_steps_change_the_twin_from_their_sample`: `sledid pil --inject` faults on the
+//!   host's closed loop, and the check of what the servo did about them (`LoopRun::check_outcome`).
 //! - `pil_cortex_m4f`, `pil_cortex_m0`: build the firmware (`cargo build --profile firmware` in
 //!   `target/fw`), run it under `qemu-system-arm -icount` in closed loop with the twin for
 //!   `pil::SEEKS` seeks with the fault plan (`pil::Faults::plan`), and assert: every answer
@@ -22,6 +26,10 @@
 //!   closed-loop run, the result line equal to the host's, every seek settled, the injected
 //!   overruns counted, the late hand-overs flagged (one while seeking, one while settling) and
 //!   refused, the slow ones adopted at k + L.
+//! - `pil_safe_stop_cortex_m4f`, `pil_safe_stop_cortex_m0`,
+//!   `pil_injected_reversed_sensor_stops_cortex_m4f`: a reversed sensor under PIL (while the sled
+//!   moves; injected as `--inject flip:from=1000` while it holds): the firmware stops safely and
+//!   reports the stop's reason and sample in its result line, bit-identical to the host.
 //!
 //! Needs `qemu-system-arm` and `defmt-print` (`cargo xtask setup` installs both); without them
 //! the QEMU tests fail and say so.
@@ -30,10 +38,12 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use sledid::error::ConfigError;
-use sledid::servo::{SERVO_WORDS_MAX, ServoFlags, SledServo};
+use sledid::servo::{SERVO_WORDS_MAX, ServoFlags, SledServo, StopReason};
 use sledid::words::{WordWriter, Words};
 use sledid::{PositionI48F16, Sample, SignalI16F16};
-use sledid_firmware::{self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame};
+use sledid_firmware::{
+    self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, Stop, UP_FRAME_BYTES, UpFrame,
+};
 use sledid_host::pil::{self, Core, Faults, PilRun, Record};
 use sledid_host::twin::TwinParams;
 
@@ -616,8 +626,8 @@ fn pil_cortex_m0() {
     pil_matches_host(Core::M0);
 }
 
-/// The sample of the PIL safety run at which the sensor reverses (mid-way through its second
-/// seek on the default twin).
+/// The sample of the PIL safety run at which the sensor reverses (52 samples into the third seek
+/// on the default twin, while its reference moves).
 const REVERSED_AT: u32 = 1_500;
 
 /// Issue 18 under PIL: from sample 1,500 of a 4-seek run the host sends the reading mirrored
@@ -676,4 +686,194 @@ fn pil_safe_stop_cortex_m4f() {
 #[test]
 fn pil_safe_stop_cortex_m0() {
     pil_stops_safely(Core::M0);
+}
+
+/// The samples at which the host sweep reverses the sensor or the drive: every 97th sample of a
+/// 4-seek run (2,896 samples: seeks start every 724, the reference arrives 65 after the start,
+/// then holds), from sample 300 — moving, settling and holding.
+fn reversal_samples(samples: usize) -> impl Iterator<Item = u32> {
+    (300..samples as u32).step_by(97)
+}
+
+/// `sledid pil --inject flip:from=K` and `drive-flip:from=K` on the host's closed loop (no
+/// target), K swept over a 4-seek run ([`reversal_samples`]): every run passes the PIL's outcome
+/// check (a reversal a move follows must stop the servo, at or after K, latched with the drive
+/// cut; one in the last hold may go unnoticed), the stop is a `runaway`, and it comes within
+/// [`REVERSAL_STOP_BOUND`] samples of the first move at or after K (a sled holding still does
+/// not show a reversal: one injected while it holds stops it on the next seek). Trips on a
+/// reversed drive the twin does not get (no stop), a spec parsed to the wrong fault, a stop
+/// rule that demands a stop without a move, and a safety layer slower than measured.
+#[test]
+fn injected_reversals_stop_the_host_loop() {
+    let params = pil::twin_params(4);
+    let clean = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    let mut worst = [(0u32, 0u32); 2];
+    let (mut stopped, mut unnoticed) = (0, 0);
+    for from in reversal_samples(clean.records.len()) {
+        for (i, kind) in ["flip", "drive-flip"].into_iter().enumerate() {
+            let spec = format!("{kind}:from={from}");
+            let faults = Faults::from_specs(&[spec.as_str()]).expect("spec");
+            let run = pil::run_loop(&params, pil::SEED, &faults, None).expect("host run");
+            if let Err(e) = run.check_outcome() {
+                panic!("{spec}: {e}");
+            }
+            let Some(stop) = run.summary.stop else {
+                assert_eq!(run.first_move(from), None, "{spec}: no stop");
+                unnoticed += 1;
+                continue;
+            };
+            assert_eq!(stop.reason, StopReason::Runaway, "{spec}: {stop}");
+            let moved = run.first_move(from).expect("checked: a move follows");
+            let after = stop.k - moved;
+            if after > worst[i].1 {
+                worst[i] = (from, after);
+            }
+            stopped += 1;
+        }
+    }
+    println!(
+        "{stopped} runs stopped, {unnoticed} reversals in the last hold unnoticed; stop − first \
+         move worst: sensor {} (from {}), drive {} (from {})",
+        worst[0].1, worst[0].0, worst[1].1, worst[1].0
+    );
+    assert_eq!((stopped, unnoticed), (40, 14));
+    for (kind, (from, after)) in ["flip", "drive-flip"].into_iter().zip(worst) {
+        assert!(
+            after <= REVERSAL_STOP_BOUND,
+            "{kind}:from={from} stopped {after} samples after the first move"
+        );
+    }
+}
+
+/// The most samples from the first move after an injected reversal (sensor or drive) to the
+/// safe stop, over the host sweep of `injected_reversals_stop_the_host_loop`: measured 18
+/// (sensor and drive alike, 2026-11-27).
+const REVERSAL_STOP_BOUND: u32 = 18;
+
+/// The outcome check can fail: a stop without a fault that may cause it, a fault that must stop
+/// the servo without a stop, a stop before its fault, a summary naming another sample than the
+/// first flagged, a stop that releases. Trips on a `check_outcome` that skips any of these.
+#[test]
+fn outcome_check_refuses_what_the_faults_do_not_explain() {
+    let params = pil::twin_params(2);
+    let clean = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    assert_eq!(clean.check_outcome(), Ok(()));
+    let flip = Faults::from_specs(&["flip:from=700"]).expect("spec");
+    let stopped = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    assert_eq!(stopped.check_outcome(), Ok(()));
+    let stop = stopped.summary.stop.expect("a stop");
+
+    let mut unexplained = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    unexplained.plan = Faults::default();
+    let e = unexplained
+        .check_outcome()
+        .expect_err("a stop without a fault");
+    assert!(e.contains("no fault injected may stop it"), "{e}");
+
+    let mut missing = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("run");
+    missing.plan = flip.clone();
+    let e = missing
+        .check_outcome()
+        .expect_err("a reversal without a stop");
+    assert!(e.contains("no safe stop"), "{e}");
+
+    let mut early = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    early.plan = Faults::from_specs(&[format!("flip:from={}", stop.k + 1)]).expect("spec");
+    let e = early.check_outcome().expect_err("a stop before its fault");
+    assert!(e.contains("before the first fault"), "{e}");
+
+    let mut misnamed = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    misnamed.summary.stop = Some(Stop {
+        k: stop.k + 1,
+        ..stop
+    });
+    let e = misnamed.check_outcome().expect_err("another sample");
+    assert!(e.contains("not the first sample flagged"), "{e}");
+
+    let mut released = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    let last = released.records.len() - 1;
+    released.records[last].up.u_raw = 1;
+    let e = released.check_outcome().expect_err("a released stop");
+    assert!(e.contains("did not hold"), "{e}");
+}
+
+/// `mass:at=K,factor=F` and `friction:…` step the twin's plant before sample K (K while the
+/// sled is driven): the frames up to K are those of the run without them, the answers differ
+/// within 3 samples after (measured: K + 3 for mass × 3, K + 2 for friction × 4 — the reading
+/// changes once the sled has moved a quantum differently). Trips on plant steps not applied, or
+/// applied samples early.
+#[test]
+fn injected_plant_steps_change_the_twin_from_their_sample() {
+    let params = pil::twin_params(2);
+    let clean = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    // While the second seek's reference moves: the sled is driven, a step shows at once.
+    let at = clean.twin.seeks()[1].start_index + 20;
+    for spec in [
+        format!("mass:at={at},factor=3"),
+        format!("friction:at={at},factor=4"),
+    ] {
+        let faults = Faults::from_specs(&[spec.as_str()]).expect("spec");
+        let run = pil::run_loop(&params, pil::SEED, &faults, None).expect("host run");
+        let first = (0..run.records.len()).find(|&k| run.records[k] != clean.records[k]);
+        let first = first.unwrap_or_else(|| panic!("{spec}: no difference"));
+        assert!(
+            (at + 1..=at + 3).contains(&first),
+            "{spec}: first difference at {first}"
+        );
+        if let Err(e) = run.check_outcome() {
+            panic!("{spec}: {e}");
+        }
+        println!(
+            "{spec}: first difference at {first}; {}",
+            run.outcome_line()
+        );
+    }
+}
+
+/// The sample of the injected PIL reversal (`sledid pil --inject flip:from=1000`): while the sled
+/// holds after the second seek (the third starts at 1,448).
+const INJECTED_FLIP_AT: u32 = 1_000;
+
+/// `sledid pil --core m4f --seeks 4 --inject flip:from=1000`: the reversed sensor parsed from its
+/// spec, injected while the sled holds; the firmware under QEMU answers bit-identically to the
+/// host, its result line (equal to the host's) names the stop — `runaway`, at the sample the
+/// host's servo stops at — within [`REVERSAL_STOP_BOUND`] samples of the next seek's start
+/// (measured: 1,466, 18 after 1,448), and the PIL check passes (the stop came after the fault,
+/// latched with the drive cut). Measured: 0.40 s of QEMU wall time for the run's 2,896 samples,
+/// 0.71 s for the test with the firmware built. Trips on a firmware that does not report its
+/// stop (or reports another reason or sample), a target that differs from the host, or a check
+/// that demands every seek settled despite the stop.
+#[test]
+fn pil_injected_reversed_sensor_stops_cortex_m4f() {
+    let params = pil::twin_params(4);
+    let spec = format!("flip:from={INJECTED_FLIP_AT}");
+    let faults = Faults::from_specs(&[spec.as_str()]).expect("spec");
+    let pil = run_pil(Core::M4f, &params, &faults, "pil-inject");
+    if let Err(e) = pil.check() {
+        panic!("{e}");
+    }
+    let stop = pil.run.summary.stop.expect("checked: a stop");
+    assert_eq!(stop.reason, StopReason::Runaway, "{stop}");
+    let line = pil.result_line.as_deref().unwrap_or_default();
+    assert!(
+        line.contains(&format!(" stop=runaway@{} ", stop.k)),
+        "{line}"
+    );
+    let moved = pil
+        .run
+        .first_move(INJECTED_FLIP_AT)
+        .expect("a seek follows");
+    assert!(moved > INJECTED_FLIP_AT, "injected while holding: {moved}");
+    let after = stop.k - moved;
+    assert!(
+        after <= REVERSAL_STOP_BOUND,
+        "stopped {after} samples after the move"
+    );
+    let host = pil::run_loop(&params, pil::SEED, &faults, None).expect("host run");
+    assert_eq!(pil.run.records, host.records);
+    println!(
+        "m4f --inject {spec}: {}; {after} samples after the next move at {moved}; {:.2?} wall",
+        pil.run.outcome_line(),
+        pil.wall
+    );
 }

@@ -10,6 +10,7 @@
 //! | `mass` | `at`, `factor` | the moving mass × `factor` from `at` on |
 //! | `friction` | `at`, `factor` | Coulomb and static friction × `factor` from `at` on |
 
+use crate::faults::spec::Spec;
 use crate::faults::{Fault, Injector, Reading};
 use crate::recording::Sample;
 use crate::twin::{SledController, Twin};
@@ -40,67 +41,37 @@ pub enum ServoFault {
     },
 }
 
-fn pairs<'a>(spec: &str, rest: &'a str) -> Result<Vec<(&'a str, &'a str)>, String> {
-    rest.split(',')
-        .filter(|p| !p.is_empty())
-        .map(|p| {
-            p.split_once('=')
-                .ok_or_else(|| format!("--inject `{spec}`: `{p}` is not key=value"))
-        })
-        .collect()
-}
-
-fn value<T: std::str::FromStr>(p: &[(&str, &str)], name: &str, spec: &str) -> Result<T, String> {
-    let (_, v) = p
-        .iter()
-        .find(|(k, _)| *k == name)
-        .ok_or_else(|| format!("--inject `{spec}`: missing `{name}=`"))?;
-    v.parse()
-        .map_err(|_| format!("--inject `{spec}`: `{name}={v}` is not a valid value"))
-}
-
 impl std::str::FromStr for ServoFault {
     type Err = String;
-    fn from_str(spec: &str) -> Result<Self, String> {
-        let (kind, rest) = spec.split_once(':').unwrap_or((spec, ""));
-        let p = pairs(spec, rest)?;
-        let known: &[&str] = match kind {
+    fn from_str(text: &str) -> Result<Self, String> {
+        let spec = Spec::parse(text)?;
+        let known: &[&str] = match spec.kind {
             "drive-flip" => &["from"],
             "mass" | "friction" => &["at", "factor"],
             _ => {
-                return spec
+                return text
                     .parse::<Fault>()
                     .map(Self::Sensor)
                     .map_err(|e| format!("{e}; in closed loop also drive-flip, mass, friction"));
             }
         };
-        if let Some((k, _)) = p.iter().find(|(k, _)| !known.contains(k)) {
-            return Err(format!(
-                "--inject `{spec}`: unknown key `{k}` for `{kind}` (keys: {})",
-                known.join(", ")
-            ));
+        spec.only_keys(known)?;
+        if spec.kind == "drive-flip" {
+            return Ok(Self::DriveFlip {
+                from: spec.value("from")?,
+            });
         }
-        match kind {
-            "drive-flip" => Ok(Self::DriveFlip {
-                from: value(&p, "from", spec)?,
-            }),
-            _ => {
-                let at = value(&p, "at", spec)?;
-                let factor: f64 = value(&p, "factor", spec)?;
-                let ok =
-                    factor.is_finite() && (factor > 0.0 || (kind == "friction" && factor == 0.0));
-                if !ok {
-                    return Err(format!(
-                        "--inject `{spec}`: factor must be finite and > 0 (≥ 0 for friction)"
-                    ));
-                }
-                Ok(if kind == "mass" {
-                    Self::Mass { at, factor }
-                } else {
-                    Self::Friction { at, factor }
-                })
-            }
+        let at = spec.value("at")?;
+        let factor: f64 = spec.value("factor")?;
+        let friction = spec.kind == "friction";
+        if !(factor.is_finite() && (factor > 0.0 || (friction && factor == 0.0))) {
+            return Err(spec.error("factor must be finite and > 0 (≥ 0 for friction)"));
         }
+        Ok(if friction {
+            Self::Friction { at, factor }
+        } else {
+            Self::Mass { at, factor }
+        })
     }
 }
 
@@ -174,20 +145,23 @@ pub fn run_with_faults<C: ReadingController>(
     let start = twin.samples().len();
     let mut faulty = Faulty::new(controller, faults);
     loop {
-        let k = twin.samples().len() - start;
-        for f in faults {
-            match *f {
-                ServoFault::Mass { at, factor } if at == k => {
-                    twin.plant_mut().scale_mass(factor);
-                }
-                ServoFault::Friction { at, factor } if at == k => {
-                    twin.plant_mut().scale_friction(factor);
-                }
-                _ => {}
-            }
-        }
+        apply_plant_faults(twin, faults, twin.samples().len() - start);
         if twin.step(&mut faulty).is_none() {
             break;
+        }
+    }
+}
+
+/// Applies the plant faults of `faults` (mass and friction steps) that name sample `k`, before
+/// the twin steps it.
+pub fn apply_plant_faults(twin: &mut Twin, faults: &[ServoFault], k: usize) {
+    for f in faults {
+        match *f {
+            ServoFault::Mass { at, factor } if at == k => twin.plant_mut().scale_mass(factor),
+            ServoFault::Friction { at, factor } if at == k => {
+                twin.plant_mut().scale_friction(factor);
+            }
+            _ => {}
         }
     }
 }

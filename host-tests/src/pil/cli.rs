@@ -18,8 +18,31 @@ pub struct PilArgs {
     #[arg(long, default_value_t = super::SEED)]
     pub seed: u64,
     /// Run without the fault plan (no late or slow background, no overrun, no lost position).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "inject")]
     pub no_faults: bool,
+    /// A fault injected into the run, repeatable; given, the faults are these alone (they replace
+    /// the default plan): `lost:at=K[,n=N]`, `stall:at=K`, `handover-miss:job=J`,
+    /// `handover-slow:job=J`, `flip:from=K` (reversed sensor), `drive-flip:from=K`,
+    /// `mass:at=K,factor=F`, `friction:at=K,factor=F`. K is the sample as the PIL counts it: the
+    /// frame's index from 0 at the run's first frame (the up frame's k); J the redesign jobs in
+    /// the order posted, from 0. E.g. `--inject flip:from=1500`. Each core's line shows what the
+    /// servo did: every seek settled, or the safe stop (reason, sample, seek, reading).
+    #[arg(long)]
+    pub inject: Vec<String>,
+}
+
+/// The faults `args` asks for, and how to say so.
+fn faults_of(args: &PilArgs) -> Result<(Faults, String), String> {
+    if args.no_faults {
+        Ok((Faults::default(), "none (--no-faults)".to_owned()))
+    } else if args.inject.is_empty() {
+        let plan = Faults::plan();
+        let specs = plan.to_specs().join(" ");
+        Ok((plan, format!("the default plan: --inject {specs}")))
+    } else {
+        let faults = Faults::from_specs(&args.inject)?;
+        Ok((faults, format!("--inject {}", args.inject.join(" "))))
+    }
 }
 
 /// Runs the PIL as `args` asks; prints one line per core and fails on the first failed check.
@@ -33,27 +56,24 @@ pub fn pil_cmd(args: &PilArgs) -> Result<(), String> {
         "m0" => &[Core::M0],
         other => return Err(format!("--core {other}: m4f, m0 or both")),
     };
-    let faults = if args.no_faults {
-        Faults::default()
-    } else {
-        Faults::plan()
-    };
+    let (faults, described) = faults_of(args)?;
+    println!("faults: {described}");
     build_firmware()?;
     let params = twin_params(args.seeks);
     let mut failed = Vec::new();
     for &core in cores {
         let dir = firmware_target_dir().join(format!("pil-{}", core.name()));
         let pil = run_pil(core, &firmware_elf(core), &params, args.seed, &faults, &dir)?;
-        let (seeks, settled) = pil.run.settled();
         let t = pil.timing.unwrap_or_default();
         println!(
-            "{core}: {samples} samples, {settled}/{seeks} seeks settled, answers {lockstep}; \
+            "{core}: {samples} samples, {outcome}, answers {lockstep}; \
              {result}\n      overruns {overruns} (stalls asked {stalls}), hand-overs \
              posted/adopted/missed {handover:?}, late results refused {late}; handler max \
              {ticks} of {period} SysTick ticks (QEMU virtual time), stack {stack} B; {wall:.2?} \
              wall, QEMU log in {dir}",
             core = core.name(),
             samples = pil.run.records.len(),
+            outcome = pil.run.outcome_line(),
             lockstep = if pil.run.mismatch.is_none() && pil.run.link_error.is_none() {
                 "bit-identical to the host"
             } else {

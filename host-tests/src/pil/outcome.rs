@@ -1,0 +1,134 @@
+//! What a run's servo did about its faults: every seek settled, or a safe stop — its reason,
+//! sample and position — that the target and the host's reference agree on (the host's summary
+//! carries it; [`super::PilRun::check`] demands the target's result line equal it). Which of the
+//! two the faults call for is [`Faults::stop_rule`](super::Faults::stop_rule).
+
+use sledid::servo::ServoFlags;
+
+use super::{LoopRun, StopRule, design};
+use sledid_firmware::{Kind, Stop, UpFrame};
+
+impl LoopRun {
+    /// The seek (index in the schedule) sample `k` falls in.
+    fn seek_of(&self, k: u32) -> usize {
+        self.twin
+            .seeks()
+            .iter()
+            .rposition(|s| s.start_index <= k as usize)
+            .unwrap_or(0)
+    }
+
+    /// The first sample at or after `k` at which the reference moves (a seek's step, from its
+    /// start to its arrival), if the run has one: `k` itself during a move, else the next
+    /// seek's start.
+    pub fn first_move(&self, k: u32) -> Option<u32> {
+        let k = k as usize;
+        let moving_from = self.twin.seeks().iter().find_map(|s| {
+            if k < s.start_index {
+                Some(s.start_index)
+            } else if k < s.arrival_index.unwrap_or(usize::MAX) {
+                Some(k)
+            } else {
+                None
+            }
+        });
+        moving_from.and_then(|m| u32::try_from(m).ok())
+    }
+
+    /// What the servo did, in one phrase: `20/20 seeks settled, no safe stop`, or `SAFE STOP
+    /// (runaway) at sample 1516 in seek 3 of 4, reading … quanta, sled at … quanta; 2/4 seeks
+    /// settled` (seeks counted from 1; the reading is the frame's y, the sled's position the
+    /// twin's sensor before the faults).
+    pub fn outcome_line(&self) -> String {
+        let (seeks, settled) = self.settled();
+        let settled = format!("{settled}/{seeks} seeks settled");
+        let Some(stop) = self.summary.stop else {
+            return format!("{settled}, no safe stop");
+        };
+        let k = stop.k as usize;
+        let reading = match self
+            .records
+            .get(k)
+            .map(|r| (r.frame.command.kind(), r.frame.y))
+        {
+            Some((Some(Kind::Sample), y)) => format!("reading {} quanta", y.raw() >> 16),
+            _ => "no reading".to_owned(),
+        };
+        let sled = self.twin.samples().get(k).map_or(String::new(), |s| {
+            format!(", sled at {} quanta", s.y_counts)
+        });
+        format!(
+            "SAFE STOP ({}) at sample {k} in seek {} of {}, {reading}{sled}; {settled}",
+            stop.reason.name(),
+            self.seek_of(stop.k) + 1,
+            self.twin.seeks().len()
+        )
+    }
+
+    /// Checks that the servo did what the run's faults call for ([`StopRule`]): with none that
+    /// may stop it, no stop and every seek settled; with one that may, that or a stop; with one
+    /// that must, a stop. A stop must come at or after the first fault that may cause it, be the
+    /// first sample flagged `SAFE_STOP`, and hold to the end with the drive cut.
+    ///
+    /// # Errors
+    /// What the servo did instead.
+    pub fn check_outcome(&self) -> Result<(), String> {
+        let bridged = design()?.safety.lost_samples;
+        let samples = u32::try_from(self.records.len()).unwrap_or(u32::MAX);
+        let rule = self
+            .plan
+            .stop_rule(samples, bridged, |k| self.first_move(k));
+        match (rule, self.summary.stop) {
+            (StopRule::Never, Some(stop)) => Err(format!(
+                "the servo stopped ({stop}), though no fault injected may stop it"
+            )),
+            (StopRule::Required { from }, None) => Err(format!(
+                "no safe stop, though the faults from sample {from} must stop the servo; {}",
+                self.outcome_line()
+            )),
+            (StopRule::Allowed { from } | StopRule::Required { from }, Some(stop)) => {
+                self.check_stop(stop, from)
+            }
+            (StopRule::Never | StopRule::Allowed { .. }, None) => {
+                let (seeks, settled) = self.settled();
+                if settled == seeks && seeks > 0 {
+                    Ok(())
+                } else {
+                    Err(format!("{settled} of {seeks} seeks settled, no safe stop"))
+                }
+            }
+        }
+    }
+
+    /// `stop` came at or after sample `from`, at the first sample flagged `SAFE_STOP`, and held
+    /// to the end with the drive cut.
+    fn check_stop(&self, stop: Stop, from: u32) -> Result<(), String> {
+        if stop.k < from {
+            return Err(format!(
+                "the servo stopped ({stop}) before the first fault that may stop it (sample {from})"
+            ));
+        }
+        let stopped =
+            |up: &UpFrame| up.servo_flags().contains(ServoFlags::SAFE_STOP) && up.u_raw == 0;
+        let first_flagged = self.records.iter().position(|r| stopped(&r.up));
+        if first_flagged != Some(stop.k as usize) {
+            return Err(format!(
+                "the summary's stop ({stop}) is not the first sample flagged SAFE_STOP with the \
+                 drive cut ({first_flagged:?})"
+            ));
+        }
+        match self
+            .records
+            .get(stop.k as usize..)
+            .unwrap_or_default()
+            .iter()
+            .find(|r| !stopped(&r.up))
+        {
+            Some(r) => Err(format!(
+                "the stop ({stop}) did not hold: sample {} answered {:?}",
+                r.up.k, r.up
+            )),
+            None => Ok(()),
+        }
+    }
+}
