@@ -51,7 +51,7 @@ pub use link::{
 };
 pub use part::{PART_M0PLUS, PART_M4F, Part, SAMPLE_PERIOD_NS};
 pub use ticker::{
-    FrameSensor, NoReading, PWM_MAX_DUTY, PilPin, PilPwm, RESULT_PREFIX, Stop, Summary, THETA_N,
+    FrameSensor, NoReading, PWM_MAX_DUTY, PilPin, PilPwm, RESULT_PREFIX, Summary, THETA_N,
     TIMING_PREFIX, Ticker,
 };
 pub use words::{LOOP_WORDS, config, config_into};

@@ -61,7 +61,7 @@ mod target {
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
-    use sledid::servo::{Posted, ServoFlags, SledServo};
+    use sledid::servo::{Posted, ServoFlags, SledServo, StopReason};
 
     use sledid_firmware::timing::Timing;
     use sledid_firmware::{
@@ -327,15 +327,16 @@ mod target {
         }
     }
 
-    /// The result line's `stop=` field: `none`, or `reason@k` (as [`sledid_firmware::Stop`]
-    /// displays).
-    struct StopField(Option<sledid_firmware::Stop>);
+    /// The result line's `stop=` field: `none`, or the reason's [`StopReason::code`] (as
+    /// [`sledid_firmware::Summary`] displays it; a code, not the reason's name, keeps the names
+    /// out of the image's flash).
+    struct StopField(Option<StopReason>);
 
     impl defmt::Format for StopField {
         fn format(&self, f: defmt::Formatter<'_>) {
             match self.0 {
                 None => defmt::write!(f, "none"),
-                Some(stop) => defmt::write!(f, "{=str}@{=u32}", stop.reason.name(), stop.k),
+                Some(reason) => defmt::write!(f, "{=u8}", reason.code()),
             }
         }
     }

@@ -156,11 +156,6 @@ impl<C: Borrow<SledServo>> Ticker<C> {
         t.updates = t
             .updates
             .wrapping_add(u32::from(out.identifier.status.contains(Status::UPDATED)));
-        if t.stop.is_none()
-            && let Some(reason) = out.stop
-        {
-            t.stop = Some(Stop { reason, k });
-        }
         for (count, flag) in t.handover.iter_mut().zip([
             ServoFlags::REDESIGN_POSTED,
             ServoFlags::REDESIGN_ADOPTED,
@@ -203,6 +198,7 @@ impl<C: Borrow<SledServo>> Ticker<C> {
         {
             *dst = t.raw();
         }
+        s.stop = self.state.safe_stop();
         s
     }
 }
@@ -226,26 +222,11 @@ pub struct Summary {
     /// Handlers that ended after the next period had begun (the target's count; the host
     /// expects one per overrun it asked for, [`crate::Command::stall`]).
     pub overruns: u32,
-    /// The safety layer's stop, if the servo stopped.
-    pub stop: Option<Stop>,
+    /// Why the safety layer stopped the servo, if it did (the latched reason at the end; the
+    /// sample it stopped at is the first answer flagged `SAFE_STOP`).
+    pub stop: Option<StopReason>,
     /// Final velocity θ, raw I12F20.
     pub theta_raw: [i32; THETA_N],
-}
-
-/// A latched safe stop, as the result line reports it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Stop {
-    /// Why ([`StopReason::name`] in the line).
-    pub reason: StopReason,
-    /// The first sample whose output carried it.
-    pub k: u32,
-}
-
-impl fmt::Display for Stop {
-    /// `reason@k`, e.g. `runaway@1512`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}@{}", self.reason.name(), self.k)
-    }
 }
 
 /// `[a, b, c]`: a slice as defmt prints it.
@@ -262,8 +243,8 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 
 impl fmt::Display for Summary {
     /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
-    /// rejected, skipped] overruns=… stop=none|reason@k theta=[…]` (raw I12F20), exactly the
-    /// firmware's defmt line.
+    /// rejected, skipped] overruns=… stop=none|code theta=[…]` (the stop's [`StopReason::code`];
+    /// θ raw I12F20), exactly the firmware's defmt line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -275,7 +256,7 @@ impl fmt::Display for Summary {
         write_list(f, &self.redesigns)?;
         write!(f, " overruns={} stop=", self.overruns)?;
         match self.stop {
-            Some(stop) => write!(f, "{stop}")?,
+            Some(reason) => write!(f, "{}", reason.code())?,
             None => f.write_str("none")?,
         }
         f.write_str(" theta=")?;

@@ -41,9 +41,7 @@ use sledid::error::ConfigError;
 use sledid::servo::{SERVO_WORDS_MAX, ServoFlags, SledServo, StopReason};
 use sledid::words::{WordWriter, Words};
 use sledid::{PositionI48F16, Sample, SignalI16F16};
-use sledid_firmware::{
-    self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, Stop, UP_FRAME_BYTES, UpFrame,
-};
+use sledid_firmware::{self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame};
 use sledid_host::pil::{self, Core, Faults, PilRun, Record};
 use sledid_host::twin::TwinParams;
 
@@ -717,7 +715,7 @@ fn injected_reversals_stop_the_host_loop() {
             if let Err(e) = run.check_outcome() {
                 panic!("{spec}: {e}");
             }
-            let Some(stop) = run.summary.stop else {
+            let Some(stop) = run.stop() else {
                 assert_eq!(run.first_move(from), None, "{spec}: no stop");
                 unnoticed += 1;
                 continue;
@@ -751,8 +749,8 @@ fn injected_reversals_stop_the_host_loop() {
 const REVERSAL_STOP_BOUND: u32 = 18;
 
 /// The outcome check can fail: a stop without a fault that may cause it, a fault that must stop
-/// the servo without a stop, a stop before its fault, a summary naming another sample than the
-/// first flagged, a stop that releases. Trips on a `check_outcome` that skips any of these.
+/// the servo without a stop, a stop before its fault, answers flagged `SAFE_STOP` with no reason
+/// in the summary, a stop that releases. Trips on a `check_outcome` that skips any of these.
 #[test]
 fn outcome_check_refuses_what_the_faults_do_not_explain() {
     let params = pil::twin_params(2);
@@ -761,7 +759,7 @@ fn outcome_check_refuses_what_the_faults_do_not_explain() {
     let flip = Faults::from_specs(&["flip:from=700"]).expect("spec");
     let stopped = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
     assert_eq!(stopped.check_outcome(), Ok(()));
-    let stop = stopped.summary.stop.expect("a stop");
+    let stop = stopped.stop().expect("a stop");
 
     let mut unexplained = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
     unexplained.plan = Faults::default();
@@ -782,13 +780,12 @@ fn outcome_check_refuses_what_the_faults_do_not_explain() {
     let e = early.check_outcome().expect_err("a stop before its fault");
     assert!(e.contains("before the first fault"), "{e}");
 
-    let mut misnamed = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
-    misnamed.summary.stop = Some(Stop {
-        k: stop.k + 1,
-        ..stop
-    });
-    let e = misnamed.check_outcome().expect_err("another sample");
-    assert!(e.contains("not the first sample flagged"), "{e}");
+    let mut unreported = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
+    unreported.summary.stop = None;
+    let e = unreported
+        .check_outcome()
+        .expect_err("flags without a reason");
+    assert!(e.contains("disagree"), "{e}");
 
     let mut released = pil::run_loop(&params, pil::SEED, &flip, None).expect("host run");
     let last = released.records.len() - 1;
@@ -836,13 +833,13 @@ const INJECTED_FLIP_AT: u32 = 1_000;
 
 /// `sledid pil --core m4f --seeks 4 --inject flip:from=1000`: the reversed sensor parsed from its
 /// spec, injected while the sled holds; the firmware under QEMU answers bit-identically to the
-/// host, its result line (equal to the host's) names the stop — `runaway`, at the sample the
-/// host's servo stops at — within [`REVERSAL_STOP_BOUND`] samples of the next seek's start
-/// (measured: 1,466, 18 after 1,448), and the PIL check passes (the stop came after the fault,
-/// latched with the drive cut). Measured: 0.40 s of QEMU wall time for the run's 2,896 samples,
+/// host (its first answer flagged `SAFE_STOP` is the host's), its result line (equal to the
+/// host's) names the reason — `stop=1`, `runaway` — and the stop comes within
+/// [`REVERSAL_STOP_BOUND`] samples of the next seek's start (measured: 1,466, 18 after 1,448);
+/// the PIL check passes (the stop came after the fault, latched with the drive cut). Measured: 0.40 s of QEMU wall time for the run's 2,896 samples,
 /// 0.71 s for the test with the firmware built. Trips on a firmware that does not report its
-/// stop (or reports another reason or sample), a target that differs from the host, or a check
-/// that demands every seek settled despite the stop.
+/// stop (or reports another reason), a target that differs from the host (a stop at another
+/// sample among them), or a check that demands every seek settled despite the stop.
 #[test]
 fn pil_injected_reversed_sensor_stops_cortex_m4f() {
     let params = pil::twin_params(4);
@@ -852,13 +849,11 @@ fn pil_injected_reversed_sensor_stops_cortex_m4f() {
     if let Err(e) = pil.check() {
         panic!("{e}");
     }
-    let stop = pil.run.summary.stop.expect("checked: a stop");
+    let stop = pil.run.stop().expect("checked: a stop");
     assert_eq!(stop.reason, StopReason::Runaway, "{stop}");
     let line = pil.result_line.as_deref().unwrap_or_default();
-    assert!(
-        line.contains(&format!(" stop=runaway@{} ", stop.k)),
-        "{line}"
-    );
+    let code = StopReason::Runaway.code();
+    assert!(line.contains(&format!(" stop={code} ")), "{line}");
     let moved = pil
         .run
         .first_move(INJECTED_FLIP_AT)

@@ -53,6 +53,7 @@ use crate::twin::{SledController, Twin, TwinParams};
 pub use cli::{PilArgs, pil_cmd};
 pub use faults::{Faults, PilFault, StopRule};
 pub use link::{Core, QemuLink};
+pub use outcome::SafeStop;
 use sledid_firmware::{
     Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
 };
@@ -517,8 +518,8 @@ impl PilRun {
 
     /// Every check of a PIL run: [`Self::check_lockstep`], then that the servo did what the
     /// faults call for ([`LoopRun::check_outcome`]: every seek settled, or — with a fault that may
-    /// or must stop it — a safe stop, held, whose reason and sample the target's result line and
-    /// the host agree on).
+    /// or must stop it — a safe stop, held, whose reason (the result line) and sample (the first
+    /// answer flagged `SAFE_STOP`) the target and the host agree on).
     ///
     /// # Errors
     /// The first check that fails, with what was seen.
@@ -531,7 +532,7 @@ impl PilRun {
 
     /// The target against the host: the link held, no mismatch, QEMU exited with success, the
     /// result line equals the reference's (overruns included: one per stall asked for; the
-    /// safe stop's reason and sample), the stalls were made.
+    /// safe stop's reason), the stalls were made.
     ///
     /// # Errors
     /// The first check that fails, with what was seen.

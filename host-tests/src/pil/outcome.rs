@@ -1,12 +1,36 @@
 //! What a run's servo did about its faults: every seek settled, or a safe stop — its reason,
-//! sample and position — that the target and the host's reference agree on (the host's summary
-//! carries it; [`super::PilRun::check`] demands the target's result line equal it). Which of the
-//! two the faults call for is [`Faults::stop_rule`](super::Faults::stop_rule).
+//! sample and position — that the target and the host's reference agree on: the reason is the
+//! result line's (the host's summary; [`super::PilRun::check`] demands the target's line equal
+//! it), the sample the first answer flagged `SAFE_STOP` (bit-identical to the host's). Which of
+//! the two the faults call for is [`Faults::stop_rule`](super::Faults::stop_rule).
 
-use sledid::servo::ServoFlags;
+use std::fmt;
+
+use sledid::servo::{ServoFlags, StopReason};
+use sledid_firmware::{Kind, UpFrame};
 
 use super::{LoopRun, StopRule, design};
-use sledid_firmware::{Kind, Stop, UpFrame};
+
+/// A run's safe stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SafeStop {
+    /// Why: the reason latched at the end of the run (the result line's `stop=` code).
+    pub reason: StopReason,
+    /// The first sample whose answer is flagged `SAFE_STOP`.
+    pub k: u32,
+}
+
+impl fmt::Display for SafeStop {
+    /// `reason at sample k`, e.g. `runaway at sample 1466`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} at sample {}", self.reason.name(), self.k)
+    }
+}
+
+/// True for an answer flagged `SAFE_STOP`.
+fn flagged_stop(up: &UpFrame) -> bool {
+    up.servo_flags().contains(ServoFlags::SAFE_STOP)
+}
 
 impl LoopRun {
     /// The seek (index in the schedule) sample `k` falls in.
@@ -16,6 +40,16 @@ impl LoopRun {
             .iter()
             .rposition(|s| s.start_index <= k as usize)
             .unwrap_or(0)
+    }
+
+    /// The safe stop: the summary's reason at the first answer flagged `SAFE_STOP` (`None` when
+    /// either is missing; [`Self::check_outcome`] refuses a run where they disagree).
+    pub fn stop(&self) -> Option<SafeStop> {
+        let k = self.records.iter().position(|r| flagged_stop(&r.up))?;
+        Some(SafeStop {
+            reason: self.summary.stop?,
+            k: u32::try_from(k).ok()?,
+        })
     }
 
     /// The first sample at or after `k` at which the reference moves (a seek's step, from its
@@ -42,7 +76,7 @@ impl LoopRun {
     pub fn outcome_line(&self) -> String {
         let (seeks, settled) = self.settled();
         let settled = format!("{settled}/{seeks} seeks settled");
-        let Some(stop) = self.summary.stop else {
+        let Some(stop) = self.stop() else {
             return format!("{settled}, no safe stop");
         };
         let k = stop.k as usize;
@@ -67,18 +101,27 @@ impl LoopRun {
 
     /// Checks that the servo did what the run's faults call for ([`StopRule`]): with none that
     /// may stop it, no stop and every seek settled; with one that may, that or a stop; with one
-    /// that must, a stop. A stop must come at or after the first fault that may cause it, be the
-    /// first sample flagged `SAFE_STOP`, and hold to the end with the drive cut.
+    /// that must, a stop. The summary's reason and the answers' flags must agree; a stop must
+    /// come at or after the first fault that may cause it and hold to the end with the drive
+    /// cut.
     ///
     /// # Errors
     /// What the servo did instead.
     pub fn check_outcome(&self) -> Result<(), String> {
+        let flagged = self.records.iter().position(|r| flagged_stop(&r.up));
+        if flagged.is_some() != self.summary.stop.is_some() {
+            return Err(format!(
+                "the summary's stop ({:?}) and the first answer flagged SAFE_STOP ({flagged:?}) \
+                 disagree",
+                self.summary.stop
+            ));
+        }
         let bridged = design()?.safety.lost_samples;
         let samples = u32::try_from(self.records.len()).unwrap_or(u32::MAX);
         let rule = self
             .plan
             .stop_rule(samples, bridged, |k| self.first_move(k));
-        match (rule, self.summary.stop) {
+        match (rule, self.stop()) {
             (StopRule::Never, Some(stop)) => Err(format!(
                 "the servo stopped ({stop}), though no fault injected may stop it"
             )),
@@ -100,29 +143,20 @@ impl LoopRun {
         }
     }
 
-    /// `stop` came at or after sample `from`, at the first sample flagged `SAFE_STOP`, and held
-    /// to the end with the drive cut.
-    fn check_stop(&self, stop: Stop, from: u32) -> Result<(), String> {
+    /// `stop` came at or after sample `from` and held to the end with the drive cut.
+    fn check_stop(&self, stop: SafeStop, from: u32) -> Result<(), String> {
         if stop.k < from {
             return Err(format!(
                 "the servo stopped ({stop}) before the first fault that may stop it (sample {from})"
             ));
         }
-        let stopped =
-            |up: &UpFrame| up.servo_flags().contains(ServoFlags::SAFE_STOP) && up.u_raw == 0;
-        let first_flagged = self.records.iter().position(|r| stopped(&r.up));
-        if first_flagged != Some(stop.k as usize) {
-            return Err(format!(
-                "the summary's stop ({stop}) is not the first sample flagged SAFE_STOP with the \
-                 drive cut ({first_flagged:?})"
-            ));
-        }
+        let held = |up: &UpFrame| flagged_stop(up) && up.u_raw == 0;
         match self
             .records
             .get(stop.k as usize..)
             .unwrap_or_default()
             .iter()
-            .find(|r| !stopped(&r.up))
+            .find(|r| !held(&r.up))
         {
             Some(r) => Err(format!(
                 "the stop ({stop}) did not hold: sample {} answered {:?}",
