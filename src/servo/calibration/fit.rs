@@ -67,9 +67,21 @@ fn zoh(lambda: f32) -> (f32, f32, f32, f32) {
     (a, c1, 1.0 - c1, 1.0 - a)
 }
 
-/// Calls `row(segment index, φ, x)` for every valid reading of every push, for the pole λ:
-/// x(j) = y₀ + K·x_u(j) − C(d)·x_d(j), x_u the response to the drive, x_d to the direction.
-fn rows(record: &CalibrationRecord, lambda: f32, mut row: impl FnMut(usize, &[f32; P], f32)) {
+/// One reading's row of the regression x(j) = y₀ + K·x_u(j) − C(d)·x_d(j): φ has three non-zero
+/// entries — K's (x_u), the push direction's Coulomb term (−x_d) and the push's offset (1) —
+/// at the indices `nonzero`, in increasing order.
+struct Row {
+    /// The indices of φ's non-zero entries: 0, 1 or 2 (the direction), 3 + the push.
+    nonzero: [usize; 3],
+    /// Those entries: x_u, −x_d, 1.
+    phi: [f32; 3],
+    /// The reading, quanta.
+    x: f32,
+}
+
+/// Calls `row` for every valid reading of every push, for the pole λ: x_u the response to the
+/// drive, x_d to the direction, under the exact ZOH update.
+fn rows(record: &CalibrationRecord, lambda: f32, mut row: impl FnMut(&Row)) {
     let (a, c1, d0, g) = zoh(lambda);
     for (s, seg) in record.segments.iter().enumerate() {
         let d = seg.direction();
@@ -78,13 +90,14 @@ fn rows(record: &CalibrationRecord, lambda: f32, mut row: impl FnMut(usize, &[f3
         }
         let df = d as f32;
         let drive = seg.drive_i16f16 as f32 / 65536.0;
+        let coulomb = if d > 0 { 1 } else { 2 };
         let (mut vu, mut xu, mut vd, mut xd) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
         for (j, &x) in seg.readings().iter().enumerate() {
-            let mut phi = [0.0f32; P];
-            set(&mut phi, 0, xu);
-            set(&mut phi, if d > 0 { 1 } else { 2 }, -xd);
-            set(&mut phi, 3 + s, 1.0);
-            row(s, &phi, x as f32 / 65536.0);
+            row(&Row {
+                nonzero: [0, coulomb, 3 + s],
+                phi: [xu, -xd, 1.0],
+                x: x as f32 / 65536.0,
+            });
             let u = if j < usize::from(seg.push_len) {
                 drive
             } else {
@@ -98,25 +111,25 @@ fn rows(record: &CalibrationRecord, lambda: f32, mut row: impl FnMut(usize, &[f3
     }
 }
 
-fn set(v: &mut [f32], i: usize, x: f32) {
-    if let Some(slot) = v.get_mut(i) {
-        *slot = x;
-    }
-}
-
 /// Least squares at pole λ: the unknowns and the residual sum of squares (the pseudo-observations
 /// y₀ = 0 included), `None` for a singular system.
 fn solve(record: &CalibrationRecord, lambda: f32) -> Option<([f32; P], f32, usize)> {
+    // The normal equations from φ's three non-zero entries per row: the zero products the
+    // dense sums would add change nothing (x + 0 = x), so the sums are the dense ones, in the
+    // same order, at a sixth of the work.
     let mut m = [[0.0f32; P + 1]; P];
     let mut count = 0usize;
-    rows(record, lambda, |_, phi, x| {
+    rows(record, lambda, |r| {
         count += 1;
-        for (mi, &pi) in m.iter_mut().zip(phi) {
-            for (mij, &pj) in mi.iter_mut().zip(phi) {
-                *mij += pi * pj;
+        for (&i, &pi) in r.nonzero.iter().zip(&r.phi) {
+            let Some(mi) = m.get_mut(i) else { continue };
+            for (&j, &pj) in r.nonzero.iter().zip(&r.phi) {
+                if let Some(mij) = mi.get_mut(j) {
+                    *mij += pi * pj;
+                }
             }
             if let Some(rhs) = mi.last_mut() {
-                *rhs += pi * x;
+                *rhs += pi * r.x;
             }
         }
     });
@@ -129,8 +142,14 @@ fn solve(record: &CalibrationRecord, lambda: f32) -> Option<([f32; P], f32, usiz
     }
     let theta = gauss(m)?;
     let mut ssr = 0.0f32;
-    rows(record, lambda, |_, phi, x| {
-        let e = x - phi.iter().zip(&theta).map(|(p, t)| p * t).sum::<f32>();
+    rows(record, lambda, |r| {
+        let fit: f32 = r
+            .nonzero
+            .iter()
+            .zip(&r.phi)
+            .map(|(&i, p)| p * theta.get(i).copied().unwrap_or(0.0))
+            .sum();
+        let e = r.x - fit;
         ssr += e * e;
     });
     ssr += theta.iter().skip(3).map(|y| y * y).sum::<f32>();
