@@ -24,6 +24,7 @@
 
 mod model;
 mod pacer;
+mod reference;
 mod run;
 mod trace;
 

@@ -1,5 +1,5 @@
 //! The model choice: a linear model or one of the paper's nonlinear ones, each with its float64
-//! twin ([`Reference`]) and its units, handed to the per-sample loop ([`super::run`]).
+//! twin ([`super::reference`]) and its units, handed to the per-sample loop ([`super::run`]).
 
 use std::path::Path;
 
@@ -8,58 +8,12 @@ use sledid::ident::linear::{LinearDesign, Structure};
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};
 use sledid::ident::rls::RlsDesign;
 
+use super::reference::{LinearReference, NonlinearReference};
 use super::run::replay_model;
 use super::{Normalise, Rate, ReplaySpec, ReplaySummary, replay, units};
-use crate::reference::batch::simulate;
 use crate::reference::linear::LinearF64;
-use crate::reference::nonlinear::{self as nl64, NonlinearF64};
+use crate::reference::nonlinear::NonlinearF64;
 use crate::reference::units::{ModelKind, to_normalised};
-
-/// The float64 twin run beside the fixed-point path, and the simulation its final θ is scored by.
-pub(super) trait Reference<const N: usize> {
-    /// One conditioned sample (y, u) in the estimator's units.
-    fn step(&mut self, y: f64, u: f64);
-    /// The current θ.
-    fn theta(&self) -> Vec<f64>;
-    /// The model at `theta` simulated from rest on `u`.
-    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64>;
-}
-
-/// The float64 twin of a linear model.
-struct LinearReference<const N: usize> {
-    model: LinearF64<N>,
-    na: usize,
-}
-
-impl<const N: usize> Reference<N> for LinearReference<N> {
-    fn step(&mut self, y: f64, u: f64) {
-        self.model.step(y, u);
-    }
-    fn theta(&self) -> Vec<f64> {
-        self.model.theta().to_vec()
-    }
-    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64> {
-        simulate(theta, u, self.na, 1)
-    }
-}
-
-/// The float64 twin of one of the paper's nonlinear models.
-struct NonlinearReference<const N: usize> {
-    model: NonlinearF64<N>,
-    structure: NonlinearStructure,
-}
-
-impl<const N: usize> Reference<N> for NonlinearReference<N> {
-    fn step(&mut self, y: f64, u: f64) {
-        let _ = self.model.step_forced(y, u, None);
-    }
-    fn theta(&self) -> Vec<f64> {
-        self.model.theta().to_vec()
-    }
-    fn simulate(&self, theta: &[f64], u: &[f64]) -> Vec<f64> {
-        nl64::simulate(self.structure, theta, u)
-    }
-}
 
 /// A linear model of `spec`'s structure and order, in the user's units unless `spec` normalises.
 pub(super) fn replay_linear<const N: usize>(

@@ -14,8 +14,8 @@ use sledid::ident::step::{IdentifierConfig, IdentifierDesign, IdentifierState, S
 use sledid::ident::step::{reject, step};
 use sledid::{Normalisation, Scaling, Status};
 
-use super::model::Reference;
 use super::pacer::Pacer;
+use super::reference::Reference;
 use super::trace::TraceWriter;
 use super::{BadSample, Deadlines, Rate, ReplaySpec, ReplaySummary, Units};
 use crate::compare::relative_distance;
