@@ -1,6 +1,30 @@
 //! The `sledid` command line as a shell user meets it.
 
+use std::path::Path;
 use std::process::{Command, Stdio};
+
+/// Runs `sledid ARGS DIR` (the last argument, `--out`'s value, is `dir`) and returns its stdout;
+/// fails the test with stdout and stderr when the command fails.
+fn sledid_ok(args: &[&str], dir: &Path) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
+        .args(args)
+        .arg(dir)
+        .output()
+        .expect("sledid runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The JSON file at `path`.
+fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).expect("summary");
+    serde_json::from_str(&text).expect("JSON")
+}
 
 /// `sledid … | head` closes the pipe before the command has written everything: the command ends
 /// quietly with success, not with a "Broken pipe" panic and status 101. The read end is closed
@@ -32,20 +56,9 @@ fn a_closed_pipe_ends_the_command_quietly() {
 #[test]
 fn the_demo_ends_with_the_calibrated_servo() {
     let dir = std::env::temp_dir().join(format!("sledid-cli-demo-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
-        .args(["demo", "--out"])
-        .arg(&dir)
-        .output()
-        .expect("sledid demo runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = sledid_ok(&["demo", "--out"], &dir);
     assert!(stdout.contains("calibration: "), "{stdout}");
-    let text = std::fs::read_to_string(dir.join("seek/summary.json")).expect("seek summary");
-    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let json = read_json(&dir.join("seek/summary.json"));
     let s = &json["summary"];
     let cal = &s["calibration"];
     assert!(cal["refusal"].is_null(), "{cal}");
@@ -71,19 +84,12 @@ fn the_demo_ends_with_the_calibrated_servo() {
 #[test]
 fn control_runs_the_seek_mode_by_default() {
     let dir = std::env::temp_dir().join(format!("sledid-cli-control-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
-        .args(["control", "--seeks", "12", "--perturb", "mass=1.3", "--out"])
-        .arg(&dir)
-        .output()
-        .expect("sledid control runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = sledid_ok(
+        &["control", "--seeks", "12", "--perturb", "mass=1.3", "--out"],
+        &dir,
     );
-    assert!(String::from_utf8_lossy(&out.stdout).starts_with("calibration: "));
-    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary");
-    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    assert!(stdout.starts_with("calibration: "), "{stdout}");
+    let json = read_json(&dir.join("summary.json"));
     let mass = json["plant"]["mass_kg"].as_f64().expect("mass");
     assert!((mass / 0.065 - 1.0).abs() < 1e-9, "{mass}");
     let s = &json["under_test"]["summary"];
@@ -102,8 +108,8 @@ fn control_runs_the_seek_mode_by_default() {
 #[test]
 fn control_takes_injected_faults() {
     let dir = std::env::temp_dir().join(format!("sledid-cli-inject-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_sledid"))
-        .args([
+    sledid_ok(
+        &[
             "control",
             "--controller",
             "scheduled",
@@ -112,17 +118,10 @@ fn control_takes_injected_faults() {
             "--inject",
             "flip:from=2000",
             "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .expect("sledid control runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
+        &dir,
     );
-    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary");
-    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let json = read_json(&dir.join("summary.json"));
     let stop = json["safe_stop"].as_str().expect("stopped");
     let sample: usize = ["runaway at sample ", "travel at sample "]
         .iter()

@@ -10,6 +10,8 @@ use sledid_host::control::{Perturbation, design_from_prior, plot};
 use sledid_host::twin::TwinParams;
 use std::path::PathBuf;
 
+use super::seek::IdentificationArg;
+
 /// `--controller`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum ControllerArg {
@@ -23,15 +25,6 @@ pub enum ControllerArg {
     /// The servo (gain-scheduled controller and on-line identifier) following the paper's 30 ms
     /// S-curve references, without calibration.
     Scheduled,
-}
-
-/// `--identification`.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum IdentificationArg {
-    /// The identifier adapts while the sled moves; the controller is redesigned from it.
-    Online,
-    /// Frozen at the prior: the same servo without identification (the ablation).
-    Frozen,
 }
 
 /// `sledid control`.
@@ -89,37 +82,17 @@ pub fn run(a: &Args) -> Result<(), String> {
         .unwrap_or_default();
     let params = perturb.apply(&plant);
     params.validate().map_err(|e| e.to_string())?;
-    if let ControllerArg::Seek = a.controller {
-        let seek = super::seek::Args {
-            plant: None,
-            prior: None,
-            seeks: a.seeks,
-            distances: super::seek::DISTANCES.to_owned(),
-            seed: a.seed,
-            controller: super::seek::SeekControllerArg::Seek,
-            dwell_ms: super::seek::DWELL_MS,
-            identification: match a.identification {
-                IdentificationArg::Online => super::seek::IdentificationArg::Online,
-                IdentificationArg::Frozen => super::seek::IdentificationArg::Frozen,
-            },
-            no_calibrate: false,
-            inject: a.inject.clone(),
-            out: a.out.clone(),
-        };
-        return super::seek::run_on(&params, &prior, false, &seek);
-    }
+    let design = match a.controller {
+        ControllerArg::Seek => return super::seek::run_on(&params, &prior, false, &seek_args(a)),
+        ControllerArg::Baseline => None,
+        ControllerArg::Scheduled => Some(design_from_prior(&params, &prior.plant)?),
+    };
     let options = ServoOptions {
         identification: match a.identification {
             IdentificationArg::Online => Identification::OnLine,
             IdentificationArg::Frozen => Identification::FrozenAtPrior,
         },
         ..ServoOptions::default()
-    };
-    let design = match a.controller {
-        ControllerArg::Baseline => None,
-        ControllerArg::Scheduled | ControllerArg::Seek => {
-            Some(design_from_prior(&params, &prior.plant)?)
-        }
     };
     let faults: Vec<ServoFault> = a
         .inject
@@ -142,4 +115,23 @@ pub fn run(a: &Args) -> Result<(), String> {
     plot::plot_steps(&run, &a.out.join("step_responses.png"), 4)?;
     println!("{json}\n→ {}", a.out.display());
     Ok(())
+}
+
+/// `sledid seek`'s arguments for `a` (`--controller seek`): its seeks, seed, identification,
+/// faults and output directory, `sledid seek`'s distances and dwell, calibration on; the plant
+/// and prior are passed to [`super::seek::run_on`] already read and perturbed.
+fn seek_args(a: &Args) -> super::seek::Args {
+    super::seek::Args {
+        plant: None,
+        prior: None,
+        seeks: a.seeks,
+        distances: super::seek::DISTANCES.to_owned(),
+        seed: a.seed,
+        controller: super::seek::SeekControllerArg::Seek,
+        dwell_ms: super::seek::DWELL_MS,
+        identification: a.identification,
+        no_calibrate: false,
+        inject: a.inject.clone(),
+        out: a.out.clone(),
+    }
 }
