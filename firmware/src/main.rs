@@ -61,7 +61,7 @@ mod target {
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
-    use sledid::servo::{Posted, ServoFlags, SledServo, StopReason};
+    use sledid::servo::{Calibrated, CalibrationRecord, Posted, ServoFlags, SledServo, StopReason};
 
     use sledid_firmware::timing::Timing;
     use sledid_firmware::{
@@ -299,14 +299,30 @@ mod target {
         config.redesign(posted)
     }
 
-    /// The background: takes each job the loop posts, computes the redesign, and hands the
-    /// result back into the loop's state (held back as long as the host's fault injection asks);
-    /// the hand-over refuses a result whose due sample has passed (the step has flagged the
-    /// miss). Returns when the run has ended, with the number of results refused.
+    /// The background's work on calibration's record (out of line, as [`redesign`]).
+    #[inline(never)]
+    fn calibrate(
+        config: &SledServo,
+        posted: &Posted<CalibrationRecord>,
+    ) -> Calibrated<RedesignResult> {
+        config.calibrate(&posted.job)
+    }
+
+    /// The background: takes power-on calibration's record and each redesign job the loop
+    /// posts, computes the fit or the redesign, and hands the answer back into the loop's state
+    /// (a redesign held back as long as the host's fault injection asks); the hand-over refuses
+    /// an answer whose due sample has passed (the step has flagged the miss). Returns when the
+    /// run has ended, with the number of answers refused.
     #[inline(never)]
     fn background(config: &SledServo) -> u32 {
         let mut late = 0u32;
         loop {
+            if let Some(Some(posted)) = with_loop(|l| l.ticker.take_calibration_job()) {
+                let answer = calibrate(config, &posted);
+                let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
+                late = late.wrapping_add(u32::from(accepted == Some(false)));
+                continue;
+            }
             if let Some(Some((posted, release_at))) =
                 with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at)))
             {
@@ -357,7 +373,7 @@ mod target {
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
             "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
-             redesigns={} overruns={=u32} stop={} theta={}",
+             redesigns={} overruns={=u32} calibrations={=u32} stop={} theta={}",
             RESULT_PREFIX,
             s.samples,
             s.lost,
@@ -365,6 +381,7 @@ mod target {
             s.handover,
             s.redesigns,
             t.overruns,
+            s.calibrations,
             StopField(s.stop),
             s.theta_raw
         );
@@ -460,7 +477,7 @@ mod target {
 
         use critical_section::Mutex;
         use sledid::control::scheduled::{RedesignJob, RedesignResult};
-        use sledid::servo::{Posted, SledServo};
+        use sledid::servo::{Calibrated, CalibrationRecord, Posted, SledServo};
 
         use sledid_firmware::recording::Cursor;
         use sledid_firmware::{Command, DownFrame, Kind, Ticker};
@@ -475,13 +492,14 @@ mod target {
         const RESULTS: usize = 8;
 
         /// The measured run: the loop, its read position in the trace, the results, the next
-        /// result's index.
+        /// result's index, and power-on calibration's record with the fit's answer.
         struct Bench {
             ticker: Ticker<SledServo>,
             cursor: Cursor,
             results: [Option<RedesignResult>; RESULTS],
             jobs: [Option<Posted<RedesignJob>>; RESULTS],
             next: usize,
+            calibration: Option<(Posted<CalibrationRecord>, Calibrated<RedesignResult>)>,
         }
 
         /// The run `count_insns.py` measures.
@@ -498,8 +516,9 @@ mod target {
             })
         }
 
-        /// `--init`: runs the trace once, redesigning every job at once (the host's rule), and
-        /// keeps the results; then a fresh run for the measured calls.
+        /// `--init`: runs the trace once, answering calibration's record and redesigning every
+        /// job at once (the host's rule), and keeps the answers; then a fresh run for the
+        /// measured calls.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
@@ -511,8 +530,14 @@ mod target {
             let mut ticker = Ticker::new(config);
             let mut cursor = Cursor::new();
             let mut n = 0;
+            let mut calibration = None;
             while let Some(frame) = next_frame(&mut cursor) {
                 ticker.step(&frame);
+                if let Some(posted) = ticker.take_calibration_job() {
+                    let answer = config.calibrate(&posted.job);
+                    ticker.deliver_calibration(posted.ticket, answer);
+                    calibration.get_or_insert((posted, answer));
+                }
                 if let Some(posted) = ticker.take_job() {
                     let design = config.redesign(&posted);
                     ticker.deliver(posted.ticket, design);
@@ -529,6 +554,7 @@ mod target {
                 results,
                 jobs,
                 next: 0,
+                calibration,
             };
             critical_section::with(|cs| BENCH.borrow(cs).replace(Some(bench)));
         }
@@ -557,6 +583,11 @@ mod target {
         pub(super) extern "C" fn sledid_fw_bench_tick(_i: u32) -> u32 {
             with_bench(|b, frame| {
                 let up = b.ticker.step(frame);
+                if let (Some(posted), Some((_, answer))) =
+                    (b.ticker.take_calibration_job(), b.calibration)
+                {
+                    b.ticker.deliver_calibration(posted.ticket, answer);
+                }
                 if let Some(posted) = b.ticker.take_job() {
                     if let Some(Some(design)) = b.results.get(b.next) {
                         b.ticker.deliver(posted.ticket, *design);
@@ -600,13 +631,41 @@ mod target {
             })
         }
 
+        /// The background's work on power-on calibration's record: the fit, θ and the first
+        /// design ([`SledServo::calibrate`]), the time the fit's hand-over latency must cover.
+        /// Returns 1 for a model, 0 for a refusal or without a record.
+        #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
+        #[unsafe(no_mangle)]
+        pub(super) extern "C" fn sledid_fw_bench_calibrate(_i: u32) -> u32 {
+            critical_section::with(|cs| {
+                let bench = BENCH.borrow_ref(cs);
+                let Some(b) = bench.as_ref() else {
+                    return 0;
+                };
+                match &b.calibration {
+                    Some((posted, _)) => {
+                        let answer = b
+                            .ticker
+                            .config()
+                            .calibrate(core::hint::black_box(&posted.job));
+                        u32::from(matches!(
+                            core::hint::black_box(answer),
+                            Calibrated::Model { .. }
+                        ))
+                    }
+                    None => 0,
+                }
+            })
+        }
+
         /// The `count_insns.py` entry points, referenced from `main` so that they stay in the image.
-        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 3]) = (
+        pub(super) static BENCH_EXPORTS: (extern "C" fn(), [extern "C" fn(u32) -> u32; 4]) = (
             sledid_fw_bench_init,
             [
                 sledid_fw_bench_tick,
                 sledid_fw_bench_overhead,
                 sledid_fw_bench_redesign,
+                sledid_fw_bench_calibrate,
             ],
         );
     }

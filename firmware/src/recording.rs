@@ -18,7 +18,8 @@
 //! r(0) and u(0) themselves). Differences wrap (in `i32` for y and u, in `i64` for r), so
 //! [`encode`] and [`Cursor::next`] are exact inverses for every sample the layout holds: y a whole number of quanta in `i32`,
 //! |r| < 2⁴⁷ raw, u in `i16` raw (|u| < ½ full scale); [`encode`] refuses any other. The PIL
-//! trace (3 seeks of the twin, u = 0) takes ≈ 3.1 bytes per record instead of 12.
+//! trace (power-on calibration and 3 seeks of the twin, u = 0) takes ≈ 3 bytes per record
+//! instead of 12.
 //!
 //! The bench steps one record per call, in order: decoding is one [`Cursor::next`]
 //! (≈ 3 varints and a few additions).

@@ -11,7 +11,10 @@ use sledid::Status;
 use sledid::control::Redesign;
 use sledid::control::scheduled::{RedesignJob, RedesignResult};
 use sledid::servo::hal::{ControlLoop, DriveError, PositionSensor, PwmDirection};
-use sledid::servo::{Posted, ServoFlags, SledServo, SledServoState, StopReason, Ticket};
+use sledid::servo::{
+    Calibrated, CalibrationRecord, Posted, ServoFlags, SledServo, SledServoState, StopReason,
+    Ticket,
+};
 
 use crate::link::{DownFrame, Kind, UpFrame, flags_word};
 
@@ -188,9 +191,26 @@ impl<C: Borrow<SledServo>> Ticker<C> {
         accepted
     }
 
+    /// The background's side of power-on calibration: the record the experiment posted, once
+    /// (the background answers with [`SledServo::calibrate`]).
+    pub fn take_calibration_job(&mut self) -> Option<Posted<CalibrationRecord>> {
+        self.state.take_calibration_job()
+    }
+
+    /// The background's answer to calibration's record: false when its due sample has passed
+    /// (the step has flagged the miss and posted the record again).
+    pub fn deliver_calibration(
+        &mut self,
+        ticket: Ticket,
+        answer: Calibrated<RedesignResult>,
+    ) -> bool {
+        self.state.deliver_calibration(ticket, answer)
+    }
+
     /// What the run has produced so far.
     pub fn summary(&self) -> Summary {
         let mut s = self.totals;
+        s.calibrations = self.state.calibrations();
         for (dst, t) in s
             .theta_raw
             .iter_mut()
@@ -222,6 +242,8 @@ pub struct Summary {
     /// Handlers that ended after the next period had begun (the target's count; the host
     /// expects one per overrun it asked for, [`crate::Command::stall`]).
     pub overruns: u32,
+    /// Calibrations adopted (power-on's and every re-calibration).
+    pub calibrations: u32,
     /// Why the safety layer stopped the servo, if it did (the latched reason at the end; the
     /// sample it stopped at is the first answer flagged `SAFE_STOP`).
     pub stop: Option<StopReason>,
@@ -243,8 +265,8 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 
 impl fmt::Display for Summary {
     /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
-    /// rejected, skipped] overruns=… stop=none|code theta=[…]` (the stop's [`StopReason::code`];
-    /// θ raw I12F20), exactly the firmware's defmt line.
+    /// rejected, skipped] overruns=… calibrations=… stop=none|code theta=[…]` (the stop's
+    /// [`StopReason::code`]; θ raw I12F20), exactly the firmware's defmt line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -254,7 +276,11 @@ impl fmt::Display for Summary {
         write_list(f, &self.handover)?;
         f.write_str(" redesigns=")?;
         write_list(f, &self.redesigns)?;
-        write!(f, " overruns={} stop=", self.overruns)?;
+        write!(
+            f,
+            " overruns={} calibrations={} stop=",
+            self.overruns, self.calibrations
+        )?;
         match self.stop {
             Some(reason) => write!(f, "{}", reason.code())?,
             None => f.write_str("none")?,

@@ -367,14 +367,24 @@ fn count_insns(tool: &str, elf: &str, symbol: &str, arch: &str, args: &[&str]) -
     Some(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// Records of the PIL trace (`fixtures/pil_trace.bin`, 3 seeks of the twin).
-const TRACE_SAMPLES: &str = "2172";
+/// Records of the PIL trace (`fixtures/pil_trace.bin`: power-on calibration and 3 seeks of the
+/// twin), every one measured: each record is three varints (`firmware/src/recording.rs`), each
+/// ending in the one byte whose top bit is clear. `None` if the file cannot be read or is cut off.
+fn trace_samples() -> Option<String> {
+    let bytes = std::fs::read("fixtures/pil_trace.bin").ok()?;
+    let ends = bytes.iter().filter(|&&b| b & 0x80 == 0).count();
+    (ends % 3 == 0 && bytes.last().is_some_and(|b| b & 0x80 == 0)).then(|| (ends / 3).to_string())
+}
 
 /// The firmware's cost: the interrupt's body over the PIL trace (seeks, settling, holds and the
 /// hand-overs, every call measured: mean and worst), the scaffolding to subtract, the
 /// background's redesign; then flash and RAM of the shipped images.
 fn cost_firmware() -> bool {
     let tool = count_insns_tool();
+    let Some(samples) = trace_samples() else {
+        eprintln!("fixtures/pil_trace.bin: missing or cut off");
+        return false;
+    };
     let dir = "target/fwbench";
     let mut rows = Vec::new();
     for (target, arch) in [
@@ -401,9 +411,10 @@ fn cost_firmware() -> bool {
         }
         let elf = format!("{dir}/{target}/firmware/sledid-fw");
         for (f, calls) in [
-            ("sledid_fw_bench_tick", TRACE_SAMPLES),
-            ("sledid_fw_bench_overhead", TRACE_SAMPLES),
+            ("sledid_fw_bench_tick", samples.as_str()),
+            ("sledid_fw_bench_overhead", samples.as_str()),
             ("sledid_fw_bench_redesign", "8"),
+            ("sledid_fw_bench_calibrate", "2"),
         ] {
             println!("\n==> python3 {tool} {elf} {f} --arch {arch} --calls {calls}");
             let init = ["--init", "sledid_fw_bench_init", "--calls", calls];

@@ -10,8 +10,12 @@
 //!   edge), extended to `i64`;
 //! - drive out: TIM3 channel 1 on PA6, 20 kHz PWM (|u|), and PB0 as the direction pin (high for
 //!   u ≥ 0), `PwmDirection` over embedded-hal 1.0's `SetDutyCycle` and `OutputPin`;
-//! - the background (main loop) computes each redesign and hands it over; it is adopted at k + L
-//!   or, late, refused (the configuration words' L, `loop_words.rs`);
+//! - the product's composition (the configuration words): power-on calibration — the servo
+//!   drives its identification experiment before following r —, then time-optimal seeks, settle
+//!   and hold with the safety layer armed;
+//! - the background (main loop) fits calibration's record and computes each redesign and hands
+//!   it over; it is adopted at its due sample or, late, refused (the configuration words'
+//!   latencies, `loop_words.rs`);
 //! - the reference: a demonstration that alternates between two targets every half second (an
 //!   application sets r from its own seek commands).
 //!
@@ -186,7 +190,18 @@ fn main() -> ! {
 
     let mut next_log = LOG_EVERY;
     loop {
-        // The background: a posted job is redesigned outside the interrupt and handed back.
+        // The background: power-on calibration's record is fitted, a posted job redesigned,
+        // outside the interrupt, and the answer handed back.
+        if let Some(Some(posted)) = with_board(|b| b.state.take_calibration_job()) {
+            let answer = config.calibrate(&posted.job);
+            if with_board(|b| b.state.deliver_calibration(posted.ticket, answer)) == Some(false) {
+                defmt::println!(
+                    "calibration fit due at {=u32} was late: the record is posted again",
+                    posted.ticket.due
+                );
+            }
+            continue;
+        }
         if let Some(Some(posted)) = with_board(|b| b.state.take_job()) {
             let design = config.redesign(&posted);
             if with_board(|b| b.state.deliver(posted.ticket, design)) == Some(false) {

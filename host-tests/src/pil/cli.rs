@@ -24,8 +24,9 @@ pub struct PilArgs {
     /// the default plan): `lost:at=K[,n=N]`, `stall:at=K`, `handover-miss:job=J`,
     /// `handover-slow:job=J`, `flip:from=K` (reversed sensor), `drive-flip:from=K`,
     /// `mass:at=K,factor=F`, `friction:at=K,factor=F`. K is the sample as the PIL counts it: the
-    /// frame's index from 0 at the run's first frame (the up frame's k); J the redesign jobs in
-    /// the order posted, from 0. E.g. `--inject flip:from=1500`. Each core's line shows what the
+    /// frame's index from 0 at the run's first frame (the up frame's k; power-on calibration's
+    /// frames first: 3,194 on the default sled); J the redesign jobs in
+    /// the order posted, from 0. E.g. `--inject flip:from=4312`. Each core's line shows what the
     /// servo did: every seek settled, or the safe stop (reason, sample, seek, reading).
     #[arg(long)]
     pub inject: Vec<String>,
@@ -59,7 +60,7 @@ pub fn pil_cmd(args: &PilArgs) -> Result<(), String> {
     let (faults, described) = faults_of(args)?;
     println!("faults: {described}");
     build_firmware()?;
-    let params = twin_params(args.seeks);
+    let params = twin_params(args.seeks)?;
     let mut failed = Vec::new();
     for &core in cores {
         let dir = firmware_target_dir().join(format!("pil-{}", core.name()));

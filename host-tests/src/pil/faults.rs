@@ -3,9 +3,10 @@
 //!
 //! # Sample and job indices
 //! K counts the PIL's samples: the frame's index from 0 at the run's first frame (the up frame's
-//! `k`, the twin's sample index; the firmware's servo does not calibrate at power-on, so sample 0
-//! is the first seek's first sample). J counts the redesign jobs in the order the servo posts
-//! them, from 0.
+//! `k`). The firmware's servo calibrates at power-on first, so the seek schedule starts at
+//! sample [`super::LoopRun::calibration_samples`] (a plant step due before it comes at that
+//! sample). J counts the redesign jobs in the order the servo posts them, from 0 (calibration's
+//! fit is not one of them).
 //!
 //! | kind | keys | what happens |
 //! |---|---|---|
@@ -146,14 +147,16 @@ fn earliest(a: Option<u32>, b: u32) -> Option<u32> {
 }
 
 impl Faults {
-    /// The tests' plan on the default twin: the hand-overs of jobs 0 and 1 miss — job 0 is
-    /// asked for by the first sample and due while the first seek's reference still moves, job 1
-    /// on the first arrival, due while settling — jobs 2 and 5 come back slow but in time, three
-    /// overruns, three lost positions (one while the reference moves).
+    /// The tests' plan on the default twin (power-on calibration takes frames 0–3,193, its
+    /// experiment 0–118; the first seek starts at 3,194 and arrives by 3,202; the seek mode posts
+    /// a redesign on each arrival): the hand-overs of jobs 0 and 1 miss (due while settling after
+    /// the first and second seeks), jobs 2 and 5 come back slow but in time; three overruns, the
+    /// first while the first seek moves; four lost positions — one during calibration's
+    /// experiment, one while the first seek moves, two in a row while holding.
     pub fn plan() -> Self {
         Self {
-            lost: vec![1_460, 4_000, 4_001],
-            stalls: vec![900, 5_000, 9_000],
+            lost: vec![60, 3_196, 4_000, 4_001],
+            stalls: vec![3_197, 5_000, 9_000],
             slow_jobs: vec![2, 5],
             missed_jobs: vec![0, 1],
             ..Self::default()
@@ -248,7 +251,7 @@ impl Faults {
 
     /// What the safety layer must do about these faults in a run of `samples` samples whose servo
     /// bridges `bridged` consecutive lost positions (K of the safety layer); `first_move(k)` is
-    /// the first sample at or after k at which the reference moves, if the run has one.
+    /// the first sample at or after k at which the servo drives the sled, if the run has one.
     ///
     /// More than K lost positions in a row must stop the servo; so must a reversed sensor or
     /// drive that a move follows (the sled runs away once it is driven; one reversed while the
@@ -448,8 +451,8 @@ mod tests {
             assert_eq!(Faults::from_specs(&faults.to_specs()), Ok(faults.clone()));
         }
         assert_eq!(
-            Faults::plan().to_specs()[..2],
-            ["lost:at=1460", "lost:at=4000,n=2"]
+            Faults::plan().to_specs()[..3],
+            ["lost:at=60", "lost:at=3196", "lost:at=4000,n=2"]
         );
     }
 

@@ -44,12 +44,16 @@ use std::process::Command as Process;
 use std::time::{Duration, Instant};
 
 use sledid::SignalI16F16;
-use sledid::servo::{SERVO_WORDS_MAX, ServoDesign, ServoOptions, SledServo};
+use sledid::servo::{
+    CalibrationDesign, Identification, SERVO_WORDS_MAX, ServoDesign, ServoOptions, SledServo,
+};
 
 use crate::control::design::scheduled_design_for;
 use crate::control::inject::apply_plant_faults;
+use crate::control::run::twin_safety;
+use crate::control::seek::{SeekOptions, seek_design};
 use crate::reference::control::position_from_quanta;
-use crate::twin::{SledController, Twin, TwinParams};
+use crate::twin::{ReferenceProfile, SledController, Twin, TwinParams};
 pub use cli::{PilArgs, pil_cmd};
 pub use faults::{Faults, PilFault, StopRule};
 pub use link::{Core, QemuLink};
@@ -65,35 +69,68 @@ use sledid_firmware::{
 /// `BENCHMARKS.md` (`sledid_fw_bench_redesign`).
 pub const HANDOVER_LATENCY: u16 = 12;
 
+/// The fit's hand-over latency on target: calibration's record is answered by the background at
+/// sample k + 3,072 (1.40 s). The fit ([`sledid::servo::SledServo::calibrate`], `f32`) is measured
+/// by `cargo xtask cost firmware` (`sledid_fw_bench_calibrate`, BENCHMARKS.md): on the M0+,
+/// without an FPU, it takes about 1,550 periods' worth of cycles at 48 MHz, and the interrupt
+/// keeps its share of every period; 3,072 leaves that ×2. (The host's `sledid seek` keeps the
+/// library's default, 64 samples: its background has no such limit.)
+pub const FIT_LATENCY: u16 = 3_072;
+
+/// Longest power-on calibration a run waits for before the seek schedule starts anyway (the
+/// experiment's own bound is 330 samples, then the fit's [`FIT_LATENCY`]; a refused sled stops the
+/// servo earlier).
+pub const CALIBRATION_SAMPLES_MAX: usize = 2 * FIT_LATENCY as usize;
+
 /// Seeks of the PIL runs `cargo xtask pil` and the tests make.
 pub const SEEKS: u32 = 20;
 
 /// Seed of those runs.
 pub const SEED: u64 = 1;
 
-/// The twin the PIL closes the loop around: the default (the paper's sled, Ts = 0.455 ms) with
-/// `seeks` random seeks.
-pub fn twin_params(seeks: u32) -> TwinParams {
-    let mut params = TwinParams::default();
-    params.reference.seek_count = seeks;
-    params.reference.targets_tracks = None;
-    params
+/// The PIL's seek schedule: `seeks` seek commands (steps) of 20–2,000 tracks, log-uniform, as
+/// `sledid seek` makes them ([`SeekOptions`]' defaults).
+pub fn seek_options(seeks: u32) -> SeekOptions {
+    SeekOptions {
+        seeks,
+        calibrate: true,
+        ..SeekOptions::default()
+    }
 }
 
-/// The firmware's servo: the scheduled controller designed from the default twin's sled as its
-/// prior ([`scheduled_design_for`]), with the identifier and safety layer
-/// [`ServoDesign::new`] derives from it, hand-over latency [`HANDOVER_LATENCY`].
+/// The twin the PIL closes the loop around: the default (the paper's sled, Ts = 0.455 ms) with
+/// `seeks` seek commands ([`seek_options`]).
+///
+/// # Errors
+/// The schedule's errors (none for the default sled).
+pub fn twin_params(seeks: u32) -> Result<TwinParams, String> {
+    // The seek mode's commands are steps.
+    seek_options(seeks).twin_params(&TwinParams::default(), ReferenceProfile::Step)
+}
+
+/// The firmware's servo: the product's composition, as `sledid seek` runs it — power-on
+/// calibration, then the scheduled controller in its seek mode (time-optimal seeks, settle,
+/// hold: [`seek_design`]) designed from the default twin's sled as its prior
+/// ([`scheduled_design_for`]), the velocity identifier seeded by calibration and holding its
+/// model, the safety layer of the twin's travel ([`twin_safety`]), hand-over latency
+/// [`HANDOVER_LATENCY`].
 ///
 /// # Errors
 /// The design's errors.
 pub fn design() -> Result<ServoDesign, String> {
-    let params = TwinParams::default();
-    let controller = scheduled_design_for(&params, &params.plant)?;
+    let params = twin_params(SEEKS)?;
+    let controller = seek_design(scheduled_design_for(&params, &params.plant)?);
     Ok(ServoDesign {
         options: ServoOptions {
             handover_latency_samples: HANDOVER_LATENCY,
+            identification: Identification::FrozenAtPrior,
             ..ServoOptions::default()
         },
+        safety: twin_safety(&params, &controller),
+        calibration: Some(CalibrationDesign {
+            fit_latency_samples: FIT_LATENCY,
+            ..CalibrationDesign::default()
+        }),
         ..ServoDesign::new(controller)
     })
 }
@@ -220,6 +257,11 @@ impl Lockstep<'_, '_> {
     fn stopped(&self) -> bool {
         self.mismatch.is_some() || self.link_error.is_some()
     }
+
+    /// Power-on calibration (or a re-calibration) owns the drive.
+    fn calibrating(&self) -> bool {
+        self.reference.state().calibration().is_running()
+    }
 }
 
 impl SledController for Lockstep<'_, '_> {
@@ -241,6 +283,11 @@ impl SledController for Lockstep<'_, '_> {
             y: position_from_quanta(y_counts),
         };
         let expected = self.reference.step(&frame);
+        if let Some(posted) = self.reference.take_calibration_job() {
+            // The fit, delivered at once (the target's background has its latency to answer).
+            let answer = self.reference.config().calibrate(&posted.job);
+            self.reference.deliver_calibration(posted.ticket, answer);
+        }
         if let Some(posted) = self.reference.take_job() {
             let n = self.log.jobs;
             self.log.jobs += 1;
@@ -264,6 +311,7 @@ impl SledController for Lockstep<'_, '_> {
         if let Some(&at) = self.faults.stalls.get(self.stall_from)
             && k >= at
             && !self.reference.state().redesign_in_flight()
+            && !self.calibrating()
         {
             self.stall_from += 1;
             self.log.stalls.push(k);
@@ -296,8 +344,10 @@ impl SledController for Lockstep<'_, '_> {
 pub struct LoopRun {
     /// The twin with its recording (driven by the target's answers when there was a target).
     pub twin: Twin,
-    /// Every sample's frame and answer.
+    /// Every sample's frame and answer, power-on calibration's first.
     pub records: Vec<Record>,
+    /// Samples of power-on calibration, before the seek schedule (the first records).
+    pub calibration_samples: usize,
     /// The host's reference at the end (what the target's result line must equal; its overruns
     /// are the stalls asked for).
     pub summary: Summary,
@@ -350,9 +400,19 @@ pub fn run_loop(
         u_full_scale_v: params.plant.u_max_v,
         pivot: None,
     };
+    let calibration_samples = twin.pre_roll(
+        &mut lockstep,
+        |l| l.stopped() || !l.calibrating(),
+        CALIBRATION_SAMPLES_MAX,
+    );
     while !lockstep.stopped() {
-        let k = twin.samples().len();
-        apply_plant_faults(&mut twin, &faults.plant_steps, k);
+        // K counts frames (calibration's first): a plant step due during calibration comes at
+        // the schedule's first sample.
+        let k = calibration_samples + twin.samples().len();
+        let from = if twin.samples().is_empty() { 0 } else { k };
+        for at in from..=k {
+            apply_plant_faults(&mut twin, &faults.plant_steps, at);
+        }
         if twin.step(&mut lockstep).is_none() {
             break;
         }
@@ -364,6 +424,7 @@ pub fn run_loop(
         summary,
         plan: faults.clone(),
         records: lockstep.records,
+        calibration_samples,
         faults: lockstep.log,
         mismatch: lockstep.mismatch,
         link_error: lockstep.link_error,

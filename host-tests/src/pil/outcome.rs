@@ -32,13 +32,30 @@ fn flagged_stop(up: &UpFrame) -> bool {
     up.servo_flags().contains(ServoFlags::SAFE_STOP)
 }
 
+/// A move of the sled: 2 quanta, more than the reading's flicker about a position at rest.
+pub const MOVED_QUANTA: u32 = 2;
+
 impl LoopRun {
-    /// The seek (index in the schedule) sample `k` falls in.
+    /// The twin's sample index of frame `k` (`None` during power-on calibration, which the twin
+    /// runs before its schedule: frames count calibration's samples first).
+    pub fn twin_index(&self, k: u32) -> Option<usize> {
+        (k as usize).checked_sub(self.calibration_samples)
+    }
+
+    /// The frame of the twin's sample `i`.
+    pub fn frame_index(&self, i: usize) -> usize {
+        i + self.calibration_samples
+    }
+
+    /// The seek (index in the schedule) sample `k` falls in (0 during calibration).
     fn seek_of(&self, k: u32) -> usize {
+        let Some(i) = self.twin_index(k) else {
+            return 0;
+        };
         self.twin
             .seeks()
             .iter()
-            .rposition(|s| s.start_index <= k as usize)
+            .rposition(|s| s.start_index <= i)
             .unwrap_or(0)
     }
 
@@ -52,21 +69,23 @@ impl LoopRun {
         })
     }
 
-    /// The first sample at or after `k` at which the reference moves (a seek's step, from its
-    /// start to its arrival), if the run has one: `k` itself during a move, else the next
-    /// seek's start.
+    /// The first sample at or after `k` at which the sled has moved: its reading at least
+    /// [`MOVED_QUANTA`] from the reading at `k` (the first reading at or after `k`), if the run
+    /// has one. A reversed sensor or drive shows only once the sled moves: one injected while it
+    /// holds at rest shows on the next seek, one whose servo's drive stays below breakaway not
+    /// at all.
     pub fn first_move(&self, k: u32) -> Option<u32> {
-        let k = k as usize;
-        let moving_from = self.twin.seeks().iter().find_map(|s| {
-            if k < s.start_index {
-                Some(s.start_index)
-            } else if k < s.arrival_index.unwrap_or(usize::MAX) {
-                Some(k)
-            } else {
-                None
-            }
-        });
-        moving_from.and_then(|m| u32::try_from(m).ok())
+        let mut readings = self
+            .records
+            .get(k as usize..)?
+            .iter()
+            .filter(|r| r.frame.command.kind() == Some(Kind::Sample))
+            .map(|r| (r.up.k, r.frame.y.raw()));
+        let (_, at_k) = readings.next()?;
+        let moved = i64::from(MOVED_QUANTA) << 16;
+        readings
+            .find(|&(_, y)| (y - at_k).abs() >= moved)
+            .map(|(k, _)| k)
     }
 
     /// What the servo did, in one phrase: `20/20 seeks settled, no safe stop`, or `SAFE STOP
@@ -88,7 +107,10 @@ impl LoopRun {
             Some((Some(Kind::Sample), y)) => format!("reading {} quanta", y.raw() >> 16),
             _ => "no reading".to_owned(),
         };
-        let sled = self.twin.samples().get(k).map_or(String::new(), |s| {
+        let sample = self
+            .twin_index(stop.k)
+            .and_then(|i| self.twin.samples().get(i));
+        let sled = sample.map_or(String::new(), |s| {
             format!(", sled at {} quanta", s.y_counts)
         });
         format!(
