@@ -57,7 +57,7 @@ use crate::twin::{ReferenceProfile, SledController, Twin, TwinParams};
 pub use cli::{PilArgs, pil_cmd};
 pub use faults::{Faults, PilFault, StopRule};
 pub use link::{Core, QemuLink};
-pub use outcome::SafeStop;
+pub use outcome::{MOVED_QUANTA, SafeStop};
 use sledid_firmware::{
     Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
 };
