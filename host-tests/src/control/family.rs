@@ -43,6 +43,39 @@ pub struct PlantFactors {
     pub noise_quanta: f64,
 }
 
+/// A corner of the family ([`FamilyRanges::corner`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Corner {
+    /// The fastest sled in quanta, with the most friction and noise.
+    FastSticky,
+    /// The fastest sled in quanta, without Coulomb friction or noise.
+    FastFree,
+    /// The slowest sled in quanta, with the most friction and noise.
+    SlowSticky,
+    /// The slowest sled in quanta, without Coulomb friction or noise.
+    SlowFree,
+}
+
+impl Corner {
+    /// Every corner.
+    pub const ALL: [Self; 4] = [
+        Self::FastSticky,
+        Self::FastFree,
+        Self::SlowSticky,
+        Self::SlowFree,
+    ];
+
+    /// `fast-sticky`, `fast-free`, `slow-sticky`, `slow-free`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::FastSticky => "fast-sticky",
+            Self::FastFree => "fast-free",
+            Self::SlowSticky => "slow-sticky",
+            Self::SlowFree => "slow-free",
+        }
+    }
+}
+
 /// The ranges of the family (the module table).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FamilyRanges {
@@ -90,6 +123,29 @@ impl FamilyRanges {
             stiction_ratio: (1.2, 6.0),
             quantum: (0.25, 4.0),
             noise_quanta: (0.0, 0.2),
+        }
+    }
+
+    /// The factors of `corner` of the family: every factor at the end of its range that makes the
+    /// sled fastest or slowest in quanta (force over mass and quantum; the least or the most
+    /// viscous damping), with the most friction (Coulomb and stiction at their maxima, the most
+    /// sensor noise) or none (Coulomb 0, the lowest stiction, no noise).
+    pub fn corner(&self, corner: Corner) -> PlantFactors {
+        let (fast, sticky) = match corner {
+            Corner::FastSticky => (true, true),
+            Corner::FastFree => (true, false),
+            Corner::SlowSticky => (false, true),
+            Corner::SlowFree => (false, false),
+        };
+        let end = |(lo, hi): (f64, f64), high: bool| if high { hi } else { lo };
+        PlantFactors {
+            mass: end(self.mass, !fast),
+            viscous: end(self.viscous, !fast),
+            force: end(self.force, fast),
+            coulomb: end(self.coulomb, sticky),
+            stiction_ratio: end(self.stiction_ratio, sticky),
+            quantum: end(self.quantum, !fast),
+            noise_quanta: end(self.noise_quanta, sticky),
         }
     }
 

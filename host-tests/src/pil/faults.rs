@@ -163,6 +163,23 @@ impl Faults {
         }
     }
 
+    /// The plan of the PIL's other sleds ([`super::plants`], sled `i` ≥ 1), at samples valid on
+    /// any of them (power-on calibration takes about 3,200–3,400 frames: its experiment and the
+    /// fit's latency): the hand-over of job i mod 3 misses, job 3 comes back slow but in time,
+    /// one overrun at 4,000 + 100·i (made once nothing is in flight), one lost position at
+    /// 3,500 + 37·i; every third sled's sensor reverses from sample 6,000 (it must stop).
+    pub fn generic(i: usize) -> Self {
+        let n = u32::try_from(i % 1_000).unwrap_or(0);
+        Self {
+            lost: vec![3_500 + 37 * n],
+            stalls: vec![4_000 + 100 * n],
+            slow_jobs: vec![3],
+            missed_jobs: vec![n % 3],
+            reversed_sensor_from: i.is_multiple_of(3).then_some(6_000),
+            ..Self::default()
+        }
+    }
+
     /// The faults of `sledid pil --inject` specs (nothing else: they replace the plan). Two
     /// reversals of the same kind keep the earlier.
     ///

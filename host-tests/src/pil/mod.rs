@@ -29,6 +29,10 @@
 //! `sledid pil --inject` builds them from specs ([`Faults::from_specs`], in `faults.rs` with the
 //! sample indices the PIL counts); the tests use the plan [`Faults::plan`].
 //!
+//! The sleds are [`plants::plants`]: the nominal one, the plant family's corners and sleds
+//! drawn from it, each with its fault plan; the words are the nominal sled's design on all of
+//! them (each calibrates at power-on).
+//!
 //! The configuration is [`design`]: the scheduled controller tuned on the default twin's sled
 //! (`crate::control_eval::scheduled_design_for`, at the sled's Ts = 0.455 ms) with the hand-over
 //! latency [`HANDOVER_LATENCY`]; its words are `firmware/src/loop_words.rs`
@@ -38,6 +42,7 @@ mod cli;
 mod faults;
 pub mod link;
 mod outcome;
+pub mod plants;
 
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
@@ -84,6 +89,10 @@ pub const CALIBRATION_SAMPLES_MAX: usize = 2 * FIT_LATENCY as usize;
 
 /// Seeks of the PIL runs `cargo xtask pil` and the tests make.
 pub const SEEKS: u32 = 20;
+
+/// Sleds of `cargo xtask pil` ([`plants::plants`]): the nominal one, the family's four corners
+/// and five drawn.
+pub const PLANTS: usize = 10;
 
 /// Seed of those runs.
 pub const SEED: u64 = 1;

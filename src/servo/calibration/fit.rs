@@ -192,6 +192,20 @@ fn gauss(mut m: [[f32; P + 1]; P]) -> Option<[f32; P]> {
     theta.iter().all(|t| t.is_finite()).then_some(theta)
 }
 
+/// The largest step between two consecutive readings of the record's pushes, quanta.
+fn largest_step(record: &CalibrationRecord) -> f32 {
+    let mut step = 0i64;
+    for seg in &record.segments {
+        let x = seg.x_i16f16.get(..usize::from(seg.len)).unwrap_or(&[]);
+        for w in x.windows(2) {
+            if let [a, b] = *w {
+                step = step.max((i64::from(b) - i64::from(a)).abs());
+            }
+        }
+    }
+    step as f32 / 65536.0
+}
+
 /// The residual at ln λ (∞ when singular).
 fn cost(record: &CalibrationRecord, ln_lambda: f32) -> f32 {
     solve(record, libm::expf(ln_lambda)).map_or(f32::INFINITY, |(_, ssr, _)| ssr)
@@ -260,7 +274,7 @@ pub fn fit(c: &CalibrationConfig, record: &CalibrationRecord) -> Result<Calibrat
         breakaway_fs: [fs(bk_pos), fs(bk_neg)],
         rms,
     };
-    if !rms.is_finite() || rms > c.rms_max {
+    if !rms.is_finite() || rms > c.rms_max.max(c.rms_per_step * largest_step(record)) {
         return Err(Refusal::Fit);
     }
     let b = model.b();

@@ -38,7 +38,9 @@
 //! disconnected), motion against the drive (reversed sensor or drive), more than
 //! `travel_quanta` from the start, more than `samples_max` samples, a gain b outside
 //! [`gain_min`, `gain_max`] (the family's range × 4 by default) or a fit that leaves more than
-//! `rms_max` quanta of residual. The servo does not start seeking on a guess.
+//! max(`rms_max`, `rms_per_step` · v_max) quanta of residual, v_max the record's largest step
+//! between two readings (quanta per sample: a fit's timing error of a fraction of a sample is a
+//! residual that grows with the speed). The servo does not start seeking on a guess.
 
 pub mod experiment;
 pub mod fit;
@@ -128,8 +130,11 @@ pub struct CalibrationDesign {
     pub gain_min: f64,
     /// The largest gain b accepted.
     pub gain_max: f64,
-    /// The largest RMS residual of the fit accepted, quanta.
+    /// The largest RMS residual of the fit accepted on a slow sled, quanta.
     pub rms_max: f64,
+    /// The largest RMS residual accepted on a fast sled, per quantum of the record's largest
+    /// step between two readings (the residual limit is the larger of the two).
+    pub rms_per_step: f64,
     /// The fit's hand-over latency: the record is posted at sample k, the model adopted at k + L.
     pub fit_latency_samples: u16,
 }
@@ -138,7 +143,12 @@ impl Default for CalibrationDesign {
     /// u₀ 0.2 % of full scale, r 1.5, h 2, up to 40 %, motion 2 quanta, κ 1.5, D 40 quanta, 32
     /// samples per push, rest 3 samples (64 at most; braked at the breakaway drive after 3), 330 samples, ±200 quanta, b in
     /// [0.19, 1,040] (the family's 0.76 … 260, `host-tests/src/control/family.rs`, × 4), RMS 1.5
-    /// quanta, the fit due 64 samples after the record.
+    /// quanta or 0.1 of the largest step between readings (measured over the family, its
+    /// wider family and their corners, 2 noise seeds each, 2026-11-27: every fit accepted had
+    /// ≤ 0.19 × its largest step on slow records (≤ 6 quanta per sample, where 1.5 quanta
+    /// decides) and ≤ 0.094 on fast ones; the family's fast, sticky corner leaves 2.2–2.4
+    /// quanta at 35–36 quanta per sample with its gain within 13 %), the fit due 64 samples
+    /// after the record.
     fn default() -> Self {
         Self {
             breakaway_start_fs: 0.002,
@@ -156,6 +166,7 @@ impl Default for CalibrationDesign {
             gain_min: 0.19,
             gain_max: 1040.0,
             rms_max: 1.5,
+            rms_per_step: 0.1,
             fit_latency_samples: 64,
         }
     }
@@ -181,6 +192,7 @@ pub struct CalibrationConfig {
     pub(crate) gain_min: f32,
     pub(crate) gain_max: f32,
     pub(crate) rms_max: f32,
+    pub(crate) rms_per_step: f32,
     pub(crate) latency: u16,
 }
 
@@ -208,7 +220,7 @@ impl CalibrationDesign {
     /// [`ConfigError::Calibration`] with the first value out of its range: drives in (0, 1],
     /// the ratios in (1, 4] and (1, 16], distances in [1, 4,096] quanta, counts ≥ 1 (a push at
     /// most [`SEGMENT_LEN`] − 16 samples), the gain range ordered within (0, 2,048), the RMS limit
-    /// in (0, 64].
+    /// in (0, 64] quanta, its share of the largest step in [0, 1].
     pub fn build(&self) -> Result<CalibrationConfig, ConfigError> {
         let count = |n: u16, max: u16| {
             if (1..=max).contains(&n) {
@@ -233,6 +245,7 @@ impl CalibrationDesign {
             gain_min: limit(self.gain_min, 1e-6, 2047.0)?,
             gain_max: limit(self.gain_max, self.gain_min, 2047.0)?,
             rms_max: limit(self.rms_max, 1e-3, 64.0)?,
+            rms_per_step: limit(self.rms_per_step, 0.0, 1.0)?,
             latency: count(self.fit_latency_samples, 4096)?,
         };
         if c.rest > c.rest_max {
@@ -268,6 +281,8 @@ impl CalibrationConfig {
             && self.gain_max < 2048.0
             && self.rms_max > 0.0
             && self.rms_max <= 64.0
+            && self.rms_per_step >= 0.0
+            && self.rms_per_step <= 1.0
             && self.latency >= 1;
         if ok {
             Ok(())
@@ -300,6 +315,7 @@ impl Words for CalibrationConfig {
         self.gain_min.to_bits().put(w)?;
         self.gain_max.to_bits().put(w)?;
         self.rms_max.to_bits().put(w)?;
+        self.rms_per_step.to_bits().put(w)?;
         self.latency.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
@@ -319,6 +335,7 @@ impl Words for CalibrationConfig {
             gain_min: f32::from_bits(u32::take(r)),
             gain_max: f32::from_bits(u32::take(r)),
             rms_max: f32::from_bits(u32::take(r)),
+            rms_per_step: f32::from_bits(u32::take(r)),
             latency: u16::take(r),
         }
     }
