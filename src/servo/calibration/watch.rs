@@ -19,6 +19,15 @@
 //! v_max = K·(1 − u_c) (quanta per sample, the calibrated model's top speed at full drive, at
 //! least 1/16) and T₀ = 4/(1 − a) + 220 samples (four time constants and 100 ms), both fixed at
 //! the calibration's adoption ([`CalibrationWatch::arm`]). Integer arithmetic on the sample path.
+//!
+//! # Back-off: a re-calibration that finds the same sled
+//! A re-calibration whose model matches the one it replaces — K within ×/÷ [`SAME_GAIN`] and the
+//! Coulomb level within [`SAME_COULOMB_FS`] + 25 % of it — found no change: the commands missed
+//! their budgets for another reason (a sled the laws cannot land faster), and calibrating again
+//! only stops the seeks for the experiment and the fit's latency. After n such fruitless
+//! re-calibrations in a row the next one needs 2ⁿ commands in a row that miss their budget
+//! (n ≤ [`FRUITLESS_MAX`]); one that finds a changed sled resets n. A mass or friction change
+//! still finds its re-calibration, later.
 
 #![deny(clippy::float_arithmetic)]
 
@@ -31,6 +40,14 @@ pub const SETTLED_SAMPLES: u16 = 22;
 /// 14 / 10 to 7 / 6, while the healthy family's settled seeks reported rose from 2 / 2 to
 /// 3 / 12 of 10,000 (BENCHMARKS.md, "Seek errors").
 pub const REPORT_EARLIER: u32 = 154;
+
+/// A re-calibrated gain K within this ratio either way of the previous one is the same sled's.
+pub const SAME_GAIN: f32 = 1.25;
+/// A re-calibrated Coulomb level within this (fraction of full scale) plus 25 % of the previous
+/// one is the same sled's.
+pub const SAME_COULOMB_FS: f32 = 0.002;
+/// The most fruitless re-calibrations counted: the back-off stops at 2⁴ = 16 commands.
+pub const FRUITLESS_MAX: u8 = 4;
 
 /// The watch's state (in the servo's state).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -54,6 +71,13 @@ pub struct CalibrationWatch {
     spent: bool,
     /// The next command seen is the one a re-calibration interrupted: not re-calibrated again.
     resumed: bool,
+    /// The model armed from: K and the mean Coulomb level (fraction of full scale), `f32` bits.
+    gain_k_bits: u32,
+    coulomb_fs_bits: u32,
+    /// Re-calibrations in a row that found the same sled (≤ [`FRUITLESS_MAX`]).
+    fruitless: u8,
+    /// Commands in a row that missed their budget since the last re-calibration.
+    misses: u16,
 }
 
 impl CalibrationWatch {
@@ -69,8 +93,15 @@ impl CalibrationWatch {
             base: (tau.min(1.0e6) as u32).saturating_add(220),
             // No command yet: the first sample arms the first budget.
             r: i64::MIN,
+            gain_k_bits: model.gain_k.to_bits(),
+            coulomb_fs_bits: model.coulomb_mean_fs().to_bits(),
             ..Self::default()
         }
+    }
+
+    /// Fruitless re-calibrations in a row (the back-off's n).
+    pub const fn fruitless(&self) -> u8 {
+        self.fruitless
     }
 
     /// One sample: the command `r` and the reading `y` (I48F16 raw). True when the servo should
@@ -101,9 +132,16 @@ impl CalibrationWatch {
         } else {
             self.in_band = 0;
         }
+        if self.settled {
+            self.misses = 0;
+        }
         if self.since == self.budget && !self.settled && !self.spent {
             self.spent = true;
-            return true;
+            self.misses = self.misses.saturating_add(1);
+            if self.misses >= 1 << self.fruitless {
+                self.misses = 0;
+                return true;
+            }
         }
         false
     }
@@ -118,10 +156,24 @@ impl CalibrationWatch {
 
     /// The watch for a newly adopted calibration: armed from `model`; after a re-calibration
     /// (this watch was armed) the command in progress is watched again from its next sample with
-    /// a budget from the new model, but not re-calibrated again.
+    /// a budget from the new model, but not re-calibrated again, and the back-off counts the
+    /// re-calibration fruitless when `model` is the same sled's (module doc).
+    #[allow(clippy::float_arithmetic)]
     pub fn adopt(&self, model: &CalibratedModel) -> Self {
         let mut w = Self::arm(model);
         w.resumed = self.armed;
+        if self.armed {
+            let f = f32::from_bits;
+            let ratio = f(w.gain_k_bits) / f(self.gain_k_bits);
+            let (was, now) = (f(self.coulomb_fs_bits), f(w.coulomb_fs_bits));
+            let same = (1.0 / SAME_GAIN..=SAME_GAIN).contains(&ratio)
+                && libm::fabsf(now - was) <= SAME_COULOMB_FS + 0.25 * libm::fabsf(was);
+            w.fruitless = if same {
+                self.fruitless.saturating_add(1).min(FRUITLESS_MAX)
+            } else {
+                0
+            };
+        }
         w
     }
 }
@@ -188,5 +240,75 @@ mod tests {
         }
         assert!(!w.step(r, r - 5 * Q), "no second re-calibration");
         assert!(w.seek_error());
+    }
+
+    /// `commands` commands of 320 quanta each that never settle (the reading stays 5 quanta
+    /// off), from a watch `w`: the commands (bit c for command c, counted from 0) at whose
+    /// budget it re-calibrates.
+    fn recalibrations(w: &mut CalibrationWatch, commands: i64) -> u64 {
+        let mut at = 0;
+        for c in 0..commands {
+            let r = (c + 1) * 320 * Q;
+            assert!(!w.step(r, r - 320 * Q));
+            for _ in 1..=276 {
+                if w.step(r, r - 5 * Q) {
+                    at |= 1 << c;
+                }
+            }
+        }
+        at
+    }
+
+    /// The back-off: a re-calibration that finds the same sled (K ×1.2, the Coulomb level 0.002
+    /// FS up) makes the next need two commands in a row that miss their budget, then four (after
+    /// another), while one that finds a changed sled (K ×2) resets it; a settled command starts
+    /// the count again. Trips on a watch that re-calibrates on every missed command of a sled
+    /// that does not change, or never again after a fruitless one.
+    #[test]
+    fn fruitless_recalibrations_back_off() {
+        let mut w = CalibrationWatch::arm(&model());
+        assert_eq!(recalibrations(&mut w, 1), 0b1, "the first missed command");
+        let same = CalibratedModel {
+            gain_k: 16.0 * 1.2,
+            coulomb_fs: [0.002; 2],
+            ..model()
+        };
+        w = w.adopt(&same);
+        assert_eq!(w.fruitless(), 1);
+        // The first command is the interrupted one (not re-calibrated again, not counted).
+        assert_eq!(
+            recalibrations(&mut w, 4),
+            0b0100,
+            "the second missed command after it"
+        );
+        w = w.adopt(&same);
+        assert_eq!(w.fruitless(), 2);
+        // A settled command between two misses starts the count again.
+        assert_eq!(
+            recalibrations(&mut w, 3),
+            0,
+            "the interrupted command, two misses"
+        );
+        let r = 100 * 320 * Q;
+        assert!(!w.step(r, r));
+        for _ in 0..SETTLED_SAMPLES {
+            assert!(!w.step(r, r));
+        }
+        assert_eq!(
+            recalibrations(&mut w, 4),
+            0b1000,
+            "four in a row after two fruitless ones"
+        );
+        let changed = CalibratedModel {
+            gain_k: 16.0 * 2.4,
+            ..model()
+        };
+        w = w.adopt(&changed);
+        assert_eq!(w.fruitless(), 0, "a changed sled resets the back-off");
+        assert_eq!(
+            recalibrations(&mut w, 2),
+            0b10,
+            "the interrupted command is not redone, the next miss re-calibrates"
+        );
     }
 }
