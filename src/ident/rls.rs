@@ -849,13 +849,15 @@ fn triangle_wide(
         .zip(wide.iter())
         .enumerate()
     {
-        let shift = if wj == 0 { -32 } else { i32::from(wj) };
         let col = col.get_mut(..j).unwrap_or_default();
         for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
             let u_old = *uij;
-            // −32 gives the rounded high word, as the fast path.
-            let du = shift_round_i64(mul_i32_wide(nu_of(*lo, *hi), m_mu), shift);
-            *uij = sat_i32(i64::from(u_old).saturating_add(du), &mut sat);
+            let nu = nu_of(*lo, *hi);
+            *uij = if wj == 0 {
+                add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
+            } else {
+                add_shifted(u_old, mul_i32_wide(nu, m_mu), wj.into(), &mut sat)
+            };
             (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
         }
         if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
@@ -864,6 +866,27 @@ fn triangle_wide(
         }
     }
     sat
+}
+
+/// u + round(p·2^s) (half up), saturated to `i32` (flagged): the wide columns' ΔU for
+/// |p| < 2^62 and s ≥ −31. The same value as `sat_i32(u + shift_round_i64(p, s))`, in 32-bit
+/// halves where it can be (the general 64-bit shift is long, and a library call on Armv6-M).
+#[inline(always)]
+fn add_shifted(u: i32, p: i64, s: i32, sat: &mut bool) -> i32 {
+    let v = if s < 0 {
+        // A right shift by 1..=31: |p·2^s| < 2^61, exact in i64 with the half added.
+        let k = s.unsigned_abs().min(63);
+        crate::num::wide::shr_i64(p + (1i64 << (k - 1)), k)
+    } else if p == 0 {
+        0
+    } else if s < 32 && p.unsigned_abs() >> (62 - s) == 0 {
+        // |p·2^s| < 2^62: exact.
+        p << s
+    } else {
+        // |p·2^s| ≥ 2^62: beyond i32 whatever u; the sign of p decides.
+        if p > 0 { i64::MAX } else { i64::MIN }
+    };
+    sat_i32(i64::from(u).saturating_add(v), sat)
 }
 
 impl RlsConfig {
@@ -1386,6 +1409,27 @@ mod tests {
             }
             let expected = (mul_i32_wide(a, b) + (1i64 << (s - 1))) >> s;
             assert_eq!(i64::from(mul_hi_round(a, pre)), expected, "{a} {b} {s}");
+        }
+    }
+
+    #[test]
+    fn wide_delta_u_equals_the_64_bit_shift() {
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..200_000 {
+            let u = next() as i32;
+            let bits = (next() % 63) as u32;
+            let p = (next() as i64) >> (63 - bits.max(1)) >> 1; // |p| < 2^62
+            let s = (next() % 100) as i32 - 31;
+            let (mut a, mut b) = (false, false);
+            let want = sat_i32(i64::from(u).saturating_add(shift_round_i64(p, s)), &mut a);
+            assert_eq!(add_shifted(u, p, s, &mut b), want, "{u} {p} {s}");
+            assert_eq!(a, b);
         }
     }
 

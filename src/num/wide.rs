@@ -486,7 +486,7 @@ mod tests {
             for _ in 0..2 {
                 let e8 = mul_hi_u32(w, x).wrapping_mul(8).wrapping_neg() as i32;
                 assert!(
-                    e8.unsigned_abs() < 1 << 23 && x < (1 << 30) + (1 << 16),
+                    e8.unsigned_abs() < 1 << 24 && x < (1 << 30) + (1 << 16),
                     "{w:#x}"
                 );
                 let exact = ((i64::from(e8) * i64::from(x)) >> 32) as i32;
