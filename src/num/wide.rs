@@ -65,11 +65,18 @@ pub fn leading_zeros_near(x: u32) -> u32 {
         } else if x >= 1 << 28 {
             3
         } else {
-            leading_zeros_u32(x)
+            leading_zeros_far(x)
         }
     } else {
         x.leading_zeros()
     }
+}
+
+/// [`leading_zeros_u32`] out of line: the rare end of [`leading_zeros_near`] (one copy in the
+/// image instead of one per use).
+#[inline(never)]
+fn leading_zeros_far(x: u32) -> u32 {
+    leading_zeros_u32(x)
 }
 
 /// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` (outside that range the result is unspecified, not
