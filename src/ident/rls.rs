@@ -107,8 +107,7 @@ use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
-    bit_len_u64, leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide, mul_u32_wide,
-    recip_q61,
+    leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide, mul_u32_wide, recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -412,7 +411,7 @@ impl<const N: usize> RlsState<N> {
 /// Σⱼ dⱼ·(1 + Σ_{i<j} Uᵢⱼ²): the one formula the trace bounds and [`RlsState::trace`] share.
 fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
     let mut acc = Pos::TINY;
-    for (j, (col, dj)) in u.chunks_exact(n.max(1)).zip(d.iter()).enumerate() {
+    for (j, (col, dj)) in columns(u, n.max(1)).zip(d.iter()).enumerate() {
         acc = acc.add(trace_term(col.get(..j).unwrap_or_default(), *dj));
     }
     acc.to_dyadic()
@@ -427,11 +426,17 @@ fn trace_term(col: &[i32], dj: Dyadic) -> Pos {
         // U² < 2^14: U²·2^16 < 2^30.
         norm += (mul_i32_wide(uij, uij) >> 32) as u64;
     }
-    // 2^16 ≤ norm < 2^34: normalise to a 32-bit mantissa.
-    let bl = bit_len_u64(norm);
-    let norm = Pos {
-        m: ((norm << (64 - bl)) >> 32) as u32,
-        e: bl - 32 - 16,
+    // 2^16 ≤ norm < 2^34: its top 32 bits (truncated) from the two words by 32-bit shifts.
+    let (hi, lo) = ((norm >> 32) as u32, norm as u32);
+    let norm = if hi == 0 {
+        Pos::of_u32(lo, -16)
+    } else {
+        // 1 ≤ hi < 4: a right shift of the pair by 1 or 2.
+        let k = 32 - leading_zeros_u32(hi);
+        Pos {
+            m: (lo >> k) | (hi << (32 - k)),
+            e: k as i32 - 16,
+        }
     };
     Pos::of(dj).mul(norm)
 }
@@ -829,8 +834,18 @@ fn nu_acc(lo: u32, hi: i32, u: i32, g: i32) -> (u32, i32) {
     (acc as u32, (acc >> 32) as i32)
 }
 
-/// The U/ν triangle when a column's ΔU needs the 64-bit path (`wide[j]` its shift, else 0: the
-/// rounded high word): early updates from a large P₀. Returns whether a Uᵢⱼ saturated.
+/// `wide[j]` for a column whose ΔU is the rounded high word of νᵢ·Mⱼ (the common case).
+const NARROW: i8 = 0;
+
+/// `wide[j]` for a column whose ΔU is νᵢ·Mⱼ·2^s (|s| ≤ 63): s + 64, never [`NARROW`].
+#[inline(always)]
+fn wide_code(s: i32) -> i8 {
+    (s.clamp(-32, 63) + 64) as i8
+}
+
+/// The U/ν triangle when a column's ΔU needs the 64-bit path (`wide[j]` its [`wide_code`], else
+/// [`NARROW`]: the rounded high word, a shift by −32): early updates from a large P₀. Returns
+/// whether a Uᵢⱼ saturated. One inner loop for both kinds of column, all in 32-bit halves.
 #[cold]
 #[inline(never)]
 fn triangle_wide(
@@ -843,50 +858,68 @@ fn triangle_wide(
     nu_hi: &mut [i32; MAX_PARAMS],
 ) -> bool {
     let mut sat = false;
-    for (j, (((col, &m_mu), &gn), &wj)) in columns_mut(u_i8f24, n)
-        .zip(m_col.iter())
-        .zip(g_col.iter())
-        .zip(wide.iter())
-        .enumerate()
-    {
-        let col = col.get_mut(..j).unwrap_or_default();
+    let mut start = 0;
+    for (j, ((&m_mu, &gn), &wj)) in m_col.iter().zip(g_col.iter()).zip(wide.iter()).enumerate() {
+        if j >= n {
+            break;
+        }
+        let s = if wj == NARROW {
+            -32
+        } else {
+            i32::from(wj) - 64
+        };
+        let col = u_i8f24.get_mut(start..start + j).unwrap_or_default();
         for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
             let u_old = *uij;
-            let nu = nu_of(*lo, *hi);
-            *uij = if wj == 0 {
-                add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
-            } else {
-                add_shifted(u_old, mul_i32_wide(nu, m_mu), wj.into(), &mut sat)
-            };
+            *uij = add_shifted(u_old, mul_i32_wide(nu_of(*lo, *hi), m_mu), s, &mut sat);
             (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
         }
         if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
             *lo = (gn as u32) << U_FRAC_BITS;
             *hi = gn >> (32 - U_FRAC_BITS);
         }
+        start += n;
     }
     sat
 }
 
-/// u + round(p·2^s) (half up), saturated to `i32` (flagged): the wide columns' ΔU for
-/// |p| < 2^62 and s ≥ −31. The same value as `sat_i32(u + shift_round_i64(p, s))`, in 32-bit
-/// halves where it can be (the general 64-bit shift is long, and a library call on Armv6-M).
+/// u + round(p·2^s) (half up) for |p| ≤ 2^62 and −32 ≤ s ≤ 63, saturating (flagged); a
+/// round(p·2^s) beyond `i32` saturates to p's sign. From the two 32-bit words only (a 64-bit
+/// variable shift is long, and a library call on Armv6-M); with s = −32 it is
+/// `add_sat_i32(u, mul_hi_round(..))`, the narrow columns' ΔU (tested).
 #[inline(always)]
 fn add_shifted(u: i32, p: i64, s: i32, sat: &mut bool) -> i32 {
+    let (hi, lo) = ((p >> 32) as i32, p as u32);
     let v = if s < 0 {
-        // A right shift by 1..=31: |p·2^s| < 2^61, exact in i64 with the half added.
-        let k = s.unsigned_abs().min(63);
-        crate::num::wide::shr_i64(p + (1i64 << (k - 1)), k)
-    } else if p == 0 {
-        0
-    } else if s < 32 && p.unsigned_abs() >> (62 - s) == 0 {
-        // |p·2^s| < 2^62: exact.
-        p << s
+        // (p + 2^(k−1)) >> k for k = −s in 1..=32; the sum stays below 2^63.
+        let k = s.unsigned_abs();
+        let (lo, carry) = lo.overflowing_add(1u32.wrapping_shl(k - 1));
+        let hi = hi.wrapping_add(i32::from(carry));
+        if k >= 32 {
+            Some(hi)
+        } else {
+            let v = ((lo >> k) | ((hi as u32) << (32 - k))) as i32;
+            (hi >> k == v >> 31).then_some(v)
+        }
     } else {
-        // |p·2^s| ≥ 2^62: beyond i32 whatever u; the sign of p decides.
-        if p > 0 { i64::MAX } else { i64::MIN }
+        // p·2^s fits an i32 iff p does and the shift keeps its sign bits.
+        let x = lo as i32;
+        if hi != x >> 31 {
+            None
+        } else if s < 32 {
+            let y = x << s;
+            (y >> s == x).then_some(y)
+        } else {
+            (x == 0).then_some(0)
+        }
     };
-    sat_i32(i64::from(u).saturating_add(v), sat)
+    match v {
+        Some(v) => add_sat_i32(u, v, sat),
+        None => {
+            *sat = true;
+            if p > 0 { i32::MAX } else { i32::MIN }
+        }
+    }
 }
 
 impl RlsConfig {
@@ -977,7 +1010,7 @@ impl RlsConfig {
         }
 
         // The column chain (D, γ, each column's Mⱼ over φ̂ⱼ and Gⱼ over f̂ⱼ), then the U/ν triangle.
-        let mut wide = [0i8; MAX_PARAMS];
+        let mut wide = [NARROW; MAX_PARAMS];
         let (gamma, capped) = self.column_chain(d, &mut phi, &mut fh, &mut wide, e_nu, sigma);
         let (g_m, g_e) = (gamma.m, gamma.e);
         // The U/ν triangle column by column: Uᵢⱼ ← Uᵢⱼ + νᵢ μⱼ, νᵢ ← νᵢ + Uᵢⱼ(old) gⱼ for
@@ -986,7 +1019,7 @@ impl RlsConfig {
         let mut nu_lo = [0u32; MAX_PARAMS];
         let mut nu_hi = [0i32; MAX_PARAMS];
         let mut sat = false;
-        if wide.iter().any(|&w| w != 0) {
+        if wide.iter().any(|&w| w != NARROW) {
             sat = triangle_wide(u_i8f24, n, &phi, &fh, &wide, &mut nu_lo, &mut nu_hi);
         } else {
             for (j, ((col, &m_mu), &gn)) in columns_mut(u_i8f24, n)
@@ -1067,7 +1100,7 @@ impl RlsConfig {
     /// The column chain: for each column j, gⱼ = dⱼ fⱼ, μⱼ = −fⱼ γⱼ₋₁, qⱼ = gⱼ|μⱼ|,
     /// rⱼ = 1/(1 + qⱼ), γⱼ = γⱼ₋₁ rⱼ, dⱼ ← cap(dⱼ rⱼ / λ), and the column's Mⱼ (μⱼ pre-shifted
     /// for the U update, into `m_col`, over φ̂) and Gⱼ (gⱼ in ν units, into `g_col`, over f̂);
-    /// a column whose ΔU needs the 64-bit path has its shift in `wide` (else 0). Returns γ_N and
+    /// a column whose ΔU needs the 64-bit path has its [`wide_code`] in `wide` (else [`NARROW`]). Returns γ_N and
     /// whether a dⱼ met its cap. Products are the high words of 32×32 multiplies, normalised
     /// only where a mantissa is kept (γ, D): gⱼ, μⱼ ∈ [2^30, 2^32), qⱼ ∈ [2^28, 2^32). Inlined
     /// into the one kernel body (a call of its own measured dearer).
@@ -1090,7 +1123,7 @@ impl RlsConfig {
         };
         let k = ChainConsts::new(self, e_nu);
         // Mⱼ replaces φ̂ⱼ and Gⱼ replaces f̂ⱼ (both dead once read); a column whose ΔU needs the
-        // 64-bit path has its shift in `wide` (0: none).
+        // 64-bit path has its [`wide_code`] in `wide` ([`NARROW`]: none).
         let mut capped = false;
         for (((dj, gj), mj), wj) in d
             .iter_mut()
@@ -1124,7 +1157,7 @@ impl RlsConfig {
             } else {
                 // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
                 // mu/2, shifted by −t − 31 and narrowed, saturating.
-                *wj = (-t - 31).clamp(-31, 64) as i8;
+                *wj = wide_code(-t - 31);
                 (mu >> 1) as i32
             };
             *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
@@ -1413,7 +1446,7 @@ mod tests {
     }
 
     #[test]
-    fn wide_delta_u_equals_the_64_bit_shift() {
+    fn wide_delta_u_equals_the_64_bit_shift_and_the_narrow_one() {
         let mut x: u64 = 0x2545_F491_4F6C_DD1D;
         let mut next = || {
             x ^= x << 13;
@@ -1425,11 +1458,23 @@ mod tests {
             let u = next() as i32;
             let bits = (next() % 63) as u32;
             let p = (next() as i64) >> (63 - bits.max(1)) >> 1; // |p| < 2^62
-            let s = (next() % 100) as i32 - 31;
+            let s = (next() % 96) as i32 - 32;
             let (mut a, mut b) = (false, false);
-            let want = sat_i32(i64::from(u).saturating_add(shift_round_i64(p, s)), &mut a);
+            let v = shift_round_i64(p, s);
+            let want = if i32::try_from(v).is_ok() {
+                sat_i32(i64::from(u) + v, &mut a)
+            } else {
+                a = true;
+                if p > 0 { i32::MAX } else { i32::MIN }
+            };
             assert_eq!(add_shifted(u, p, s, &mut b), want, "{u} {p} {s}");
             assert_eq!(a, b);
+            if s == -32 {
+                let (m, n) = (next() as i32, next() as i32);
+                let mut c = false;
+                let narrow = add_sat_i32(u, mul_hi_round(m, n), &mut c);
+                assert_eq!(add_shifted(u, mul_i32_wide(m, n), -32, &mut b), narrow);
+            }
         }
     }
 
