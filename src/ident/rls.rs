@@ -764,25 +764,15 @@ fn normalise(m: u32, e: i32) -> (u32, i32) {
     (m << k, e - k as i32)
 }
 
-/// r = 1/(1 + q) for q = m·2^e ≥ 2^(e+28) with e > −32 (q ≥ 2^−3: the chain's uncommon case), as
-/// `(x2, r_e)` with r = x2·2^r_e.
+/// 1 + q for q = m·2^e ≥ 2^(e+28) with e > −32 (q ≥ 2^−3: the chain's uncommon case), as a
+/// normalised `(w, w_e)` with 1 + q = w·2^w_e (the common case is an add in line; both share the
+/// one reciprocal).
 #[cold]
 #[inline(never)]
-fn recip_large(m: u32, e: i32) -> (u32, i32) {
+fn one_plus_large(m: u32, e: i32) -> (u32, i32) {
     let (m, e) = normalise(m, e);
     let w = Pos { m, e }.one_plus();
-    (recip_q61(w.m) << 1, -62 - w.e)
-}
-
-/// dⱼ/λ stored (a column with f̂ⱼ = 0: rⱼ = 1), out of line (rare).
-#[cold]
-#[inline(never)]
-fn forget_only(d: Dyadic, lambda_inv: Dyadic, cap_exp: i32, capped: &mut bool) -> Dyadic {
-    let (m, e) = normalise(
-        mul_hi_u32(d.mant(), lambda_inv.mant()),
-        d.exp() + lambda_inv.exp() + 32,
-    );
-    store_d(m, e, cap_exp, capped)
+    (w.m, w.e)
 }
 
 /// The column chain's per-update shift constants. With f̂ⱼ = f_m·2^(−F−lz): gⱼ =
@@ -1133,45 +1123,45 @@ impl RlsConfig {
         {
             let (d_m, d_e) = (dj.mant(), dj.exp());
             let fj = *gj;
-            if fj == 0 {
-                // gⱼ = μⱼ = 0: rⱼ = 1, U's column and ν unchanged, νⱼ = 0.
-                *dj = forget_only(*dj, self.lambda_inv, cap_exp, &mut capped);
-                *mj = 0;
-                continue;
+            // rⱼ = x2·2^r_e: 1 when f̂ⱼ = 0 (gⱼ = μⱼ = 0: U's column, γ and ν unchanged, νⱼ = 0).
+            let (mut x2, mut r_e) = (1 << 31, -31);
+            *mj = 0;
+            if fj != 0 {
+                let sgn = fj >> 31; // 0 or −1
+                let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
+                let lz = leading_zeros_u32(f_abs);
+                let f_m = f_abs << lz;
+                let a = lz as i32 - d_e;
+                let b = lz as i32 - gamma.e;
+                // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
+                let g = mul_hi_u32(d_m, f_m);
+                let gn = g.checked_shr((k.g + a) as u32).unwrap_or(0) as i32;
+                *gj = (gn ^ sgn).wrapping_sub(sgn);
+                // Mⱼ, with μⱼ's sign (−fⱼ's).
+                let mu = mul_hi_u32(f_m, gamma.m);
+                let t = k.t + b;
+                let m_mu = if t >= 1 {
+                    mu.checked_shr(t as u32).unwrap_or(0) as i32
+                } else {
+                    // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
+                    // mu/2, shifted by −t − 31 and narrowed, saturating.
+                    *wj = wide_code(-t - 31);
+                    (mu >> 1) as i32
+                };
+                *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
+                // rⱼ = 1/(1 + qⱼ), then γ.
+                let q = mul_hi_u32(g, mu);
+                let s_q = k.q + a + b;
+                let (w, w_e) = if s_q >= 1 {
+                    // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
+                    ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -31)
+                } else {
+                    one_plus_large(q, -31 - s_q)
+                };
+                // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e).
+                (x2, r_e) = (recip_q61(w) << 1, -62 - w_e);
+                gamma = Pos::of_normalised(mul_hi_u32(gamma.m, x2), gamma.e + r_e + 32);
             }
-            let sgn = fj >> 31; // 0 or −1
-            let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
-            let lz = leading_zeros_u32(f_abs);
-            let f_m = f_abs << lz;
-            let a = lz as i32 - d_e;
-            let b = lz as i32 - gamma.e;
-            // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
-            let g = mul_hi_u32(d_m, f_m);
-            let gn = g.checked_shr((k.g + a) as u32).unwrap_or(0) as i32;
-            *gj = (gn ^ sgn).wrapping_sub(sgn);
-            // Mⱼ, with μⱼ's sign (−fⱼ's).
-            let mu = mul_hi_u32(f_m, gamma.m);
-            let t = k.t + b;
-            let m_mu = if t >= 1 {
-                mu.checked_shr(t as u32).unwrap_or(0) as i32
-            } else {
-                // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
-                // mu/2, shifted by −t − 31 and narrowed, saturating.
-                *wj = wide_code(-t - 31);
-                (mu >> 1) as i32
-            };
-            *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
-            // rⱼ = 1/(1 + qⱼ), then γ and dⱼ.
-            let q = mul_hi_u32(g, mu);
-            let s_q = k.q + a + b;
-            let (x2, r_e) = if s_q >= 1 {
-                // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31, r = x2·2^−62·2^31.
-                let w = (1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0);
-                (recip_q61(w) << 1, -31)
-            } else {
-                recip_large(q, -31 - s_q)
-            };
-            gamma = Pos::of_normalised(mul_hi_u32(gamma.m, x2), gamma.e + r_e + 32);
             let (m, e) = normalise(mul_hi_u32(mul_hi_u32(d_m, x2), l_m), d_e + r_e + l_e + 64);
             *dj = store_d(m, e, cap_exp, &mut capped);
         }
