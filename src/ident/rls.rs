@@ -421,6 +421,10 @@ fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
 /// to U48F16 (one high-word multiply each; the sum is below 2³⁴, no overflow).
 #[inline(always)]
 fn trace_term(col: &[i32], dj: Dyadic) -> Pos {
+    if col.is_empty() {
+        // The first column: dⱼ·1 (exact, no product).
+        return Pos::of(dj);
+    }
     let mut norm: u64 = 1 << 16;
     for &uij in col {
         // U² < 2^14: U²·2^16 < 2^30.
@@ -833,44 +837,12 @@ fn wide_code(s: i32) -> i8 {
     (s.clamp(-32, 63) + 64) as i8
 }
 
-/// The U/ν triangle when a column's ΔU needs the 64-bit path (`wide[j]` its [`wide_code`], else
-/// [`NARROW`]: the rounded high word, a shift by −32): early updates from a large P₀. Returns
-/// whether a Uᵢⱼ saturated. One inner loop for both kinds of column, all in 32-bit halves.
+/// Uᵢⱼ + νᵢ·Mⱼ·2^s for a wide column (`code` its [`wide_code`]): early updates from a large
+/// P₀, out of line (the common column's ΔU is the rounded high word, in line).
 #[cold]
 #[inline(never)]
-fn triangle_wide(
-    u_i8f24: &mut [i32],
-    n: usize,
-    m_col: &[i32; MAX_PARAMS],
-    g_col: &[i32; MAX_PARAMS],
-    wide: &[i8; MAX_PARAMS],
-    nu_lo: &mut [u32; MAX_PARAMS],
-    nu_hi: &mut [i32; MAX_PARAMS],
-) -> bool {
-    let mut sat = false;
-    let mut start = 0;
-    for (j, ((&m_mu, &gn), &wj)) in m_col.iter().zip(g_col.iter()).zip(wide.iter()).enumerate() {
-        if j >= n {
-            break;
-        }
-        let s = if wj == NARROW {
-            -32
-        } else {
-            i32::from(wj) - 64
-        };
-        let col = u_i8f24.get_mut(start..start + j).unwrap_or_default();
-        for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
-            let u_old = *uij;
-            *uij = add_shifted(u_old, mul_i32_wide(nu_of(*lo, *hi), m_mu), s, &mut sat);
-            (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
-        }
-        if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
-            *lo = (gn as u32) << U_FRAC_BITS;
-            *hi = gn >> (32 - U_FRAC_BITS);
-        }
-        start += n;
-    }
-    sat
+fn wide_entry(u: i32, nu: i32, m_mu: i32, code: i8, sat: &mut bool) -> i32 {
+    add_shifted(u, mul_i32_wide(nu, m_mu), i32::from(code) - 64, sat)
 }
 
 /// u + round(p·2^s) (half up) for |p| ≤ 2^62 and −32 ≤ s ≤ 63, saturating (flagged); a
@@ -1009,24 +981,26 @@ impl RlsConfig {
         let mut nu_lo = [0u32; MAX_PARAMS];
         let mut nu_hi = [0i32; MAX_PARAMS];
         let mut sat = false;
-        if wide.iter().any(|&w| w != NARROW) {
-            sat = triangle_wide(u_i8f24, n, &phi, &fh, &wide, &mut nu_lo, &mut nu_hi);
-        } else {
-            for (j, ((col, &m_mu), &gn)) in columns_mut(u_i8f24, n)
-                .zip(phi.iter())
-                .zip(fh.iter())
-                .enumerate()
-            {
-                let col = col.get_mut(..j).unwrap_or_default();
-                for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
-                    let u_old = *uij;
-                    *uij = add_sat_i32(u_old, mul_hi_round(nu_of(*lo, *hi), m_mu), &mut sat);
-                    (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
-                }
-                if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
-                    *lo = (gn as u32) << U_FRAC_BITS;
-                    *hi = gn >> (32 - U_FRAC_BITS);
-                }
+        for (j, (((col, &m_mu), &gn), &wj)) in columns_mut(u_i8f24, n)
+            .zip(phi.iter())
+            .zip(fh.iter())
+            .zip(wide.iter())
+            .enumerate()
+        {
+            let col = col.get_mut(..j).unwrap_or_default();
+            for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
+                let u_old = *uij;
+                let nu = nu_of(*lo, *hi);
+                *uij = if wj == NARROW {
+                    add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
+                } else {
+                    wide_entry(u_old, nu, m_mu, wj, &mut sat)
+                };
+                (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
+            }
+            if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
+                *lo = (gn as u32) << U_FRAC_BITS;
+                *hi = gn >> (32 - U_FRAC_BITS);
             }
         }
 
