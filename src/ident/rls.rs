@@ -107,7 +107,8 @@ use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
-    leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide, mul_u32_wide, recip_q61,
+    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide,
+    mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -453,9 +454,10 @@ fn max_diagonal_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
         for (j, dj) in d.iter().enumerate().take(n).skip(i + 1) {
             let uij = u.get(j * n + i).copied().unwrap_or(0);
             // U² < 2^14: U²·2^16 < 2^30.
-            let u2 = (mul_i32_wide(uij, uij) >> 32) as u32;
+            let u_abs = uij.unsigned_abs();
+            let u2 = (mul_u32_wide_compact(u_abs, u_abs) >> 32) as u32;
             if u2 != 0 {
-                pii = pii.add(Pos::of_u32(u2, -16).mul(Pos::of(*dj)));
+                pii = pii.add(Pos::of_u32_compact(u2, -16).mul_compact(Pos::of(*dj)));
             }
         }
         if (pii.e, pii.m) > (best.e, best.m) {
@@ -533,6 +535,26 @@ impl Pos {
         Self {
             m: x << lz,
             e: e - lz as i32,
+        }
+    }
+
+    /// [`Self::of_u32`] off the per-sample path ([`crate::num::wide::leading_zeros_compact`]).
+    #[inline(always)]
+    fn of_u32_compact(x: u32, e: i32) -> Self {
+        let lz = leading_zeros_compact(x);
+        Self {
+            m: x << lz,
+            e: e - lz as i32,
+        }
+    }
+
+    /// [`Self::mul`] off the per-sample path ([`crate::num::wide::mul_u32_wide_compact`]).
+    #[inline(always)]
+    fn mul_compact(self, rhs: Self) -> Self {
+        let (m, top) = normalise_product(mul_u32_wide_compact(self.m, rhs.m));
+        Self {
+            m,
+            e: self.e + rhs.e + 31 + top as i32,
         }
     }
 
@@ -842,7 +864,7 @@ fn wide_code(s: i32) -> i8 {
 #[cold]
 #[inline(never)]
 fn wide_entry(u: i32, nu: i32, m_mu: i32, code: i8, sat: &mut bool) -> i32 {
-    add_shifted(u, mul_i32_wide(nu, m_mu), i32::from(code) - 64, sat)
+    add_shifted(u, mul_i32_wide_compact(nu, m_mu), i32::from(code) - 64, sat)
 }
 
 /// u + round(p·2^s) (half up) for |p| ≤ 2^62 and −32 ≤ s ≤ 63, saturating (flagged); a
@@ -957,8 +979,8 @@ impl RlsConfig {
             let mut s = Pos::TINY;
             for (fj, dj) in fh.iter().zip(d.iter()) {
                 if *fj != 0 {
-                    let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
-                    s = s.add(Pos::of(*dj).mul(f).mul(f));
+                    let f = Pos::of_u32_compact(fj.unsigned_abs(), -F_FRAC_BITS);
+                    s = s.add(Pos::of(*dj).mul_compact(f).mul_compact(f));
                 }
             }
             let excitation = Pos {
@@ -1037,7 +1059,9 @@ impl RlsConfig {
                 }
             } else {
                 for ((th, out), nu) in thetas.zip(gains) {
-                    let dth = shift_round_i64(i64::from(mul_hi_round(nu, m_c)), a);
+                    // (Rare: the product off line on Armv6-M.)
+                    let k = ((mul_i32_wide_compact(nu, m_c) + (1 << 31)) >> 32) as i32;
+                    let dth = shift_round_i64(i64::from(k), a);
                     *th = th.saturating_add(dth);
                     *out = ParamI12F20::from_raw(theta_out(*th, &mut sat));
                 }

@@ -72,6 +72,47 @@ pub fn leading_zeros_near(x: u32) -> u32 {
     }
 }
 
+/// [`leading_zeros_u32`] for code off the per-sample path (covariance bounds, gates): on Armv6-M
+/// the one out-of-line copy of the search instead of one in line per use (flash); on Armv7-M one
+/// `CLZ`. The same result.
+#[inline(always)]
+pub fn leading_zeros_compact(x: u32) -> u32 {
+    if ARMV6M {
+        leading_zeros_far(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// [`mul_u32_wide`] for code off the per-sample path (covariance bounds, gates, rare branches):
+/// on Armv6-M one shared out-of-line copy of the product by halves instead of one in line per
+/// use (flash); on Armv7-M the one `UMULL` in line. The same result.
+#[inline(always)]
+pub fn mul_u32_wide_compact(a: u32, b: u32) -> u64 {
+    if ARMV6M {
+        mul_u32_wide_shared(a, b)
+    } else {
+        u64::from(a) * u64::from(b)
+    }
+}
+
+/// [`mul_i32_wide`] off the per-sample path, as [`mul_u32_wide_compact`].
+#[inline(always)]
+pub fn mul_i32_wide_compact(a: i32, b: i32) -> i64 {
+    if ARMV6M {
+        let p = mul_u32_wide_shared(a.unsigned_abs(), b.unsigned_abs()) as i64;
+        if (a < 0) != (b < 0) { -p } else { p }
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
+/// The out-of-line product of [`mul_u32_wide_compact`] on Armv6-M.
+#[inline(never)]
+fn mul_u32_wide_shared(a: u32, b: u32) -> u64 {
+    mul_u32_wide_by_halves(a, b)
+}
+
 /// [`leading_zeros_u32`] out of line: the rare end of [`leading_zeros_near`] (one copy in the
 /// image instead of one per use).
 #[inline(never)]
@@ -317,6 +358,7 @@ mod tests {
             for &b in &vals {
                 assert_eq!(mul_u32_wide_by_halves(a, b), u64::from(a) * u64::from(b));
                 assert_eq!(mul_u32_wide(a, b), u64::from(a) * u64::from(b));
+                assert_eq!(mul_u32_wide_compact(a, b), u64::from(a) * u64::from(b));
             }
         }
         assert_eq!(mul_i32_wide(i32::MIN, i32::MIN), 1 << 62);
@@ -328,6 +370,7 @@ mod tests {
                     "{a} {b}"
                 );
                 assert_eq!(mul_i32_wide(a, b), i64::from(a) * i64::from(b));
+                assert_eq!(mul_i32_wide_compact(a, b), i64::from(a) * i64::from(b));
             }
         }
         for x in [
@@ -351,6 +394,7 @@ mod tests {
             assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
             let x32 = x as u32;
             assert_eq!(leading_zeros_u32(x32), x32.leading_zeros(), "{x32:#x}");
+            assert_eq!(leading_zeros_compact(x32), x32.leading_zeros(), "{x32:#x}");
             for k in 0..32 {
                 let y = x32 >> k;
                 assert_eq!(leading_zeros_near(y), y.leading_zeros(), "{y:#x}");
