@@ -1152,8 +1152,9 @@ impl RlsConfig {
         {
             let (d_m, d_e) = (dj.mant(), dj.exp());
             let fj = *gj;
-            // rⱼ = x2·2^r_e: 1 when f̂ⱼ = 0 (gⱼ = μⱼ = 0: U's column, γ and ν unchanged, νⱼ = 0).
-            let (mut x2, mut r_e) = (1 << 31, -31);
+            // dⱼ·rⱼ as (d_m, d_e): dⱼ itself when f̂ⱼ = 0 (rⱼ = 1, gⱼ = μⱼ = 0: U's column, γ
+            // and ν unchanged, νⱼ = 0).
+            let (mut d_m, mut d_e) = (d_m, d_e);
             *mj = 0;
             if fj != 0 {
                 let sgn = fj >> 31; // 0 or −1
@@ -1188,10 +1189,11 @@ impl RlsConfig {
                     one_plus_large(q, -31 - s_q)
                 };
                 // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e).
-                (x2, r_e) = (recip_q61(w) << 1, -62 - w_e);
+                let (x2, r_e) = (recip_q61(w) << 1, -62 - w_e);
                 gamma = Pos::of_normalised(mul_hi_u32(gamma.m, x2), gamma.e + r_e + 32);
+                (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e + r_e + 32);
             }
-            let (m, e) = normalise(mul_hi_u32(mul_hi_u32(d_m, x2), l_m), d_e + r_e + l_e + 64);
+            let (m, e) = normalise(mul_hi_u32(d_m, l_m), d_e + l_e + 32);
             *dj = store_d(m, e, cap_exp, &mut capped);
         }
         (gamma, capped)
