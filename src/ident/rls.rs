@@ -38,14 +38,17 @@
 //!   triangular. The textbook update loses positive definiteness after ~4,400 samples of the sled
 //!   data at λ = 0.995 even in float64 (`shared/findings.md`).
 //! - **Unit-free.** ψ is normalised by one power of two per update, so no absolute format sees the
-//!   magnitude of the regressors; dⱼ, gⱼ, μⱼ, qⱼ, rⱼ, γⱼ float (32-bit mantissa, own exponent).
+//!   magnitude of the regressors; dⱼ, gⱼ, μⱼ, qⱼ, rⱼ, γⱼ float (32-bit mantissa or high word, own
+//!   exponent).
 //!   U holds ratios of parameter scales: it stays in range when the regressors are of comparable
 //!   magnitude, which the boundary's normalisation provides ([`crate::num::boundary`]).
 //! - **No division.** Each column needs one reciprocal of a number ≥ 1
-//!   ([`crate::num::wide::recip_u32`]: a 256-entry seed and two 32-bit Newton steps); 1 + qⱼ is an add to
-//!   a constant, not a general floating add.
-//! - **One pass.** ν's block exponent is known before the first column (from the exponents of D
-//!   and the bit lengths of f), so U, ν and D are updated column by column in one loop.
+//!   ([`crate::num::wide::recip_q61`]: a 256-entry seed and two 32-bit Newton steps); 1 + qⱼ is an
+//!   add to a constant, not a general floating add.
+//! - **One pass over the columns.** ν's block exponent is known before the first column (from the
+//!   exponents of D and the bit lengths of f), so the scalar chain (D, γ and each column's Mⱼ, Gⱼ
+//!   below) runs in one loop over the columns; it needs neither U nor ν, so the U/ν triangle
+//!   follows it column by column with only those two numbers per column, then θ.
 //! - **One body for every N.** [`RlsConfig::update`] is a thin const-generic wrapper of one kernel
 //!   on slices, so an image with several parameter counts carries the kernel once.
 //!
@@ -57,22 +60,28 @@
 //! | U (strict upper part, column-major) | I8F24 `i32` ([`U_FRAC_BITS`]) | saturating, flagged |
 //! | f = Uᵀφ̂ | exact I11F53 `i64` sum, rounded once to I11F21 `i32` (its high word) | \|f\| < 1 + 7·128 < 1024 |
 //! | D | [`Dyadic`]: mantissa in [2³¹, 2³²), own exponent | capped per column (anti-windup) |
-//! | gⱼ, μⱼ, qⱼ, 1 + qⱼ, rⱼ, γⱼ | mantissa in [2³¹, 2³²) and `i32` exponent, sign kept aside | products truncated to 32 bits |
-//! | ν (the gain being built) | `i32` in units 2^e_ν, one e_ν per update | headroom H bits above the largest gⱼ |
+//! | γⱼ, 1 + qⱼ | mantissa in [2³¹, 2³²) and `i32` exponent | normalised by one leading-zero count |
+//! | gⱼ, μⱼ, qⱼ | `u32` high words of 32×32 products, sign kept aside: gⱼ, μⱼ ∈ [2³⁰, 2³²), qⱼ ∈ [2²⁸, 2³²), own exponent | not normalised (only γ and D keep a mantissa) |
+//! | rⱼ | ≈ 2⁶¹/(1 + qⱼ) ∈ (2²⁹, 2³⁰ + 3) ([`crate::num::wide::recip_q61`]) with its exponent | |
+//! | Gⱼ, Mⱼ | `i32`: gⱼ in ν units, μⱼ pre-shifted for the U update (both truncated, ≥ 29 bits) | |
+//! | ν (the gain being built) | νᵢ·2²⁴ in an exact 64-bit accumulator, ν in units 2^e_ν, one e_ν per update | headroom H bits above the largest gⱼ |
 //! | θ | I16F48 `i64` ([`RlsState::theta_i16f48`]), read out as I12F20 ([`ParamI12F20`]) | saturating, flagged |
 //!
 //! # Scaling and overflow
 //! - |φ̂| ≤ 2²⁹ and |Uᵢⱼ| ≤ 2³¹ raw: each product of f is at most 2⁶⁰ and f's sum of ≤ 8 terms
 //!   (with φ̂ⱼ·2²⁴) stays below 2⁶³ — plain adds; its rounded high word is f̂ⱼ in I11F21.
 //! - ν: e_ν = max_j(exponent bound of gⱼ) − (31 − H), the bound from D's exponents and f̂'s bit
-//!   lengths, and the headroom H = bitlen((N−1)·2^k) from the largest |Uᵢⱼ| < 2^k (k ≥ 0; one OR
-//!   per entry while f is formed), so |νᵢ| ≤ |g|max·(1 + (N−1)·2^k) < 2³¹: ν keeps 31 − H bits
-//!   when U is small and stays in range when it is large. The adds saturate anyway (flagged).
-//!   νᵢ + Uᵢⱼ·gⱼ is one widening multiply and a constant shift.
+//!   lengths (|f̂ⱼ| ≤ 2^b with b the bit length of f̂ⱼ ^ (f̂ⱼ >> 31)), and the headroom
+//!   H = bitlen((N−1)·2^k) from |Uᵢⱼ| ≤ 2^k (k ≥ 0; one OR of Uᵢⱼ ^ (Uᵢⱼ >> 31) per entry while
+//!   f is formed). Gⱼ = ⌊|gⱼ|/2^e_ν⌋ < 2^(31−H) and 2^H ≥ 1 + (N−1)·2^k, so the exact
+//!   |νᵢ| ≤ Gmax·(1 + (N−1)·2^k) < 2³¹: ν keeps 31 − H bits when U is small and stays in range
+//!   when it is large, with no saturation. νᵢ + Uᵢⱼ·gⱼ is one `SMLAL` into the accumulator; νᵢ
+//!   is read from it by a constant shift (floor).
 //! - Uᵢⱼ + νᵢ μⱼ: μⱼ is pre-shifted to Mⱼ with ν·Mⱼ/2³² in I8F24 (one rounded high-word multiply,
-//!   `SMMULR` on Armv7E-M) when that shift is a right shift (the usual case); else the 64-bit
-//!   product is shifted and narrowed, saturating.
-//! - θ: Δθ = ν·(γ_N |ε|) as a 64-bit product shifted by one per-update amount, added saturating.
+//!   `SMMULR` on Armv7E-M) when that shift is a right shift (the usual case); else (early
+//!   updates from a large P₀) the 64-bit product is shifted and narrowed, saturating.
+//! - θ: Δθ = ν·(γ_N |ε|) as a 64-bit product shifted by one per-update amount, added saturating
+//!   (a wrapped sum is beyond the read-out's range and redone saturating there).
 //! - Exponents: stored ones are within ±2¹⁴ and one update adds a few hundred, so `i32` cannot
 //!   overflow; the clamp is applied when D is stored.
 //!
@@ -98,7 +107,8 @@ use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
-    bit_len_u64, leading_zeros_u32, mul_i32_u32_wide, mul_i32_wide, mul_u32_wide,
+    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide,
+    mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -402,7 +412,7 @@ impl<const N: usize> RlsState<N> {
 /// Σⱼ dⱼ·(1 + Σ_{i<j} Uᵢⱼ²): the one formula the trace bounds and [`RlsState::trace`] share.
 fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
     let mut acc = Pos::TINY;
-    for (j, (col, dj)) in u.chunks_exact(n.max(1)).zip(d.iter()).enumerate() {
+    for (j, (col, dj)) in columns(u, n.max(1)).zip(d.iter()).enumerate() {
         acc = acc.add(trace_term(col.get(..j).unwrap_or_default(), *dj));
     }
     acc.to_dyadic()
@@ -412,16 +422,26 @@ fn trace_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
 /// to U48F16 (one high-word multiply each; the sum is below 2³⁴, no overflow).
 #[inline(always)]
 fn trace_term(col: &[i32], dj: Dyadic) -> Pos {
+    if col.is_empty() {
+        // The first column: dⱼ·1 (exact, no product).
+        return Pos::of(dj);
+    }
     let mut norm: u64 = 1 << 16;
     for &uij in col {
         // U² < 2^14: U²·2^16 < 2^30.
         norm += (mul_i32_wide(uij, uij) >> 32) as u64;
     }
-    // 2^16 ≤ norm < 2^34: normalise to a 32-bit mantissa.
-    let bl = bit_len_u64(norm);
-    let norm = Pos {
-        m: ((norm << (64 - bl)) >> 32) as u32,
-        e: bl - 32 - 16,
+    // 2^16 ≤ norm < 2^34: its top 32 bits (truncated) from the two words by 32-bit shifts.
+    let (hi, lo) = ((norm >> 32) as u32, norm as u32);
+    let norm = if hi == 0 {
+        Pos::of_u32(lo, -16)
+    } else {
+        // 1 ≤ hi < 4: a right shift of the pair by 1 or 2.
+        let k = 32 - leading_zeros_u32(hi);
+        Pos {
+            m: (lo >> k) | (hi << (32 - k)),
+            e: k as i32 - 16,
+        }
     };
     Pos::of(dj).mul(norm)
 }
@@ -434,9 +454,10 @@ fn max_diagonal_of(u: &[i32], d: &[Dyadic], n: usize) -> Dyadic {
         for (j, dj) in d.iter().enumerate().take(n).skip(i + 1) {
             let uij = u.get(j * n + i).copied().unwrap_or(0);
             // U² < 2^14: U²·2^16 < 2^30.
-            let u2 = (mul_i32_wide(uij, uij) >> 32) as u32;
+            let u_abs = uij.unsigned_abs();
+            let u2 = (mul_u32_wide_compact(u_abs, u_abs) >> 32) as u32;
             if u2 != 0 {
-                pii = pii.add(Pos::of_u32(u2, -16).mul(Pos::of(*dj)));
+                pii = pii.add(Pos::of_u32_compact(u2, -16).mul_compact(Pos::of(*dj)));
             }
         }
         if (pii.e, pii.m) > (best.e, best.m) {
@@ -500,6 +521,13 @@ impl Pos {
         }
     }
 
+    /// `m·2^e` normalised by one leading-zero count (`m` non-zero).
+    #[inline(always)]
+    fn of_normalised(m: u32, e: i32) -> Self {
+        let (m, e) = normalise(m, e);
+        Self { m, e }
+    }
+
     /// |x|·2^e for a non-zero `x` (one leading-zero count).
     #[inline(always)]
     fn of_u32(x: u32, e: i32) -> Self {
@@ -507,6 +535,26 @@ impl Pos {
         Self {
             m: x << lz,
             e: e - lz as i32,
+        }
+    }
+
+    /// [`Self::of_u32`] off the per-sample path ([`crate::num::wide::leading_zeros_compact`]).
+    #[inline(always)]
+    fn of_u32_compact(x: u32, e: i32) -> Self {
+        let lz = leading_zeros_compact(x);
+        Self {
+            m: x << lz,
+            e: e - lz as i32,
+        }
+    }
+
+    /// [`Self::mul`] off the per-sample path ([`crate::num::wide::mul_u32_wide_compact`]).
+    #[inline(always)]
+    fn mul_compact(self, rhs: Self) -> Self {
+        let (m, top) = normalise_product(mul_u32_wide_compact(self.m, rhs.m));
+        Self {
+            m,
+            e: self.e + rhs.e + 31 + top as i32,
         }
     }
 
@@ -556,40 +604,6 @@ impl Pos {
         }
     }
 
-    /// `1 / self` ([`crate::num::wide::recip_u32`]: within four units of the last kept bit).
-    #[inline(always)]
-    fn recip(self) -> Self {
-        // recip_u32 is within 3 units of 2^63/m ≥ 2^31: keep the mantissa normalised.
-        let x = crate::num::wide::recip_u32(self.m).max(1 << 31);
-        Self {
-            m: x,
-            e: -63 - self.e,
-        }
-    }
-
-    /// `m >> sh` rounded half up, for `sh ≥ 1` (0 when `sh > 32`).
-    #[inline(always)]
-    fn shr_round(self, sh: i32) -> u32 {
-        // sh − 1 outside 0..=31 wraps to a shift of 32 or more: 0.
-        let x = self.m.checked_shr(sh.wrapping_sub(1) as u32).unwrap_or(0);
-        (x >> 1) + (x & 1)
-    }
-
-    /// The stored form, exponent clamped: above `cap_exp` the cap itself (flagged in `capped`),
-    /// below [`EXP_MIN`] the smallest positive value.
-    #[inline(always)]
-    fn store(self, cap_exp: i32, capped: &mut bool) -> Dyadic {
-        if self.e > cap_exp {
-            *capped = true;
-            Dyadic::from_parts(u32::MAX, cap_exp)
-        } else if self.e < EXP_MIN {
-            Dyadic::MIN_POSITIVE
-        } else {
-            // m ≥ 2^31 and EXP_MIN ≤ e ≤ cap_exp ≤ EXP_MAX.
-            Dyadic::from_parts(self.m, self.e)
-        }
-    }
-
     /// The sum, aligned and added in 32 bits (error below 2 units of the last kept bit).
     #[inline(always)]
     fn add(self, rhs: Self) -> Self {
@@ -614,6 +628,45 @@ impl Pos {
             Dyadic::from_normalised(self.m, self.e)
         }
     }
+}
+
+/// True when compiling for Armv6-M (as in [`crate::num::wide`]): a constant, the other branch is
+/// removed at compile time.
+const ARMV6M: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+
+/// The n columns of a column-major n×n matrix. On Armv6-M without `chunks_exact`, which divides
+/// the length by n (a library call there; one `UDIV` on Armv7-M, where it is the shorter loop).
+#[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+fn columns(u: &[i32], n: usize) -> impl Iterator<Item = &[i32]> {
+    let mut rest = u;
+    core::iter::from_fn(move || {
+        let (col, tail) = rest.split_at_checked(n)?;
+        rest = tail;
+        Some(col)
+    })
+}
+
+/// The n columns of a column-major n×n matrix.
+#[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+fn columns(u: &[i32], n: usize) -> impl Iterator<Item = &[i32]> {
+    u.chunks_exact(n)
+}
+
+/// [`columns`], mutable.
+#[cfg(all(target_arch = "arm", not(target_has_atomic = "32")))]
+fn columns_mut(u: &mut [i32], n: usize) -> impl Iterator<Item = &mut [i32]> {
+    let mut rest = u;
+    core::iter::from_fn(move || {
+        let (col, tail) = core::mem::take(&mut rest).split_at_mut_checked(n)?;
+        rest = tail;
+        Some(col)
+    })
+}
+
+/// [`columns`], mutable.
+#[cfg(not(all(target_arch = "arm", not(target_has_atomic = "32"))))]
+fn columns_mut(u: &mut [i32], n: usize) -> impl Iterator<Item = &mut [i32]> {
+    u.chunks_exact_mut(n)
 }
 
 /// ν's headroom H = bitlen((n−1)·2^k) ≥ ⌈log₂(1 + (n−1)·2^k)⌉, where |Uᵢⱼ| < 2^k (k ≥ 0) is
@@ -704,21 +757,21 @@ impl RlsConfig {
 /// θ's I12F20 read-out: round(θ_I16F48 / 2^28), saturating (flagged), from the two words.
 #[inline(always)]
 fn theta_out(x: i64, sat: &mut bool) -> i32 {
-    let (hi, lo) = ((x >> 32) as i32, x as u32);
+    let hi = (x >> 32) as i32;
     if hi >> 27 != hi >> 31 {
         // |θ| ≥ 2^11: beyond I12F20.
         *sat = true;
         return if hi < 0 { i32::MIN } else { i32::MAX };
     }
-    let t = (hi << 4) | (lo >> 28) as i32;
-    t.saturating_add(((lo >> 27) & 1) as i32)
+    theta_round(x)
 }
 
-/// Uᵢⱼ·x for U in I8F24 and x in ν units, rounded to ν units: |U_raw·x| < 2^62, and below 2^31
-/// after the shift when x is a gain in ν units (the headroom H).
+/// round(θ_I16F48 / 2^28) for |θ| < 2^59 (saturating at the one value that rounds up to 2^31).
 #[inline(always)]
-fn mul_u_round(u: i32, x: i32) -> i32 {
-    ((mul_i32_wide(u, x) + (1 << (U_FRAC_BITS - 1))) >> U_FRAC_BITS) as i32
+fn theta_round(x: i64) -> i32 {
+    let (hi, lo) = ((x >> 32) as i32, x as u32);
+    let t = (hi << 4) | (lo >> 28) as i32;
+    t.saturating_add(((lo >> 27) & 1) as i32)
 }
 
 /// `a + b`, saturating, flagged.
@@ -729,6 +782,130 @@ fn add_sat_i32(a: i32, b: i32, sat: &mut bool) -> i32 {
         None => {
             *sat = true;
             if b > 0 { i32::MAX } else { i32::MIN }
+        }
+    }
+}
+
+/// `m·2^e` normalised by one leading-zero count (`m` non-zero; the chain's products are nearly
+/// normalised: [`leading_zeros_near`]).
+#[inline(always)]
+fn normalise(m: u32, e: i32) -> (u32, i32) {
+    let k = leading_zeros_near(m);
+    (m << k, e - k as i32)
+}
+
+/// 1 + q for q = m·2^e ≥ 2^(e+28) with e > −32 (q ≥ 2^−3: the chain's uncommon case), as a
+/// normalised `(w, w_e)` with 1 + q = w·2^w_e (the common case is an add in line; both share the
+/// one reciprocal).
+#[cold]
+#[inline(never)]
+fn one_plus_large(m: u32, e: i32) -> (u32, i32) {
+    let (m, e) = normalise(m, e);
+    let w = Pos { m, e }.one_plus();
+    (w.m, w.e)
+}
+
+/// The column chain's per-update shift constants. With f̂ⱼ = f_m·2^(−F−lz): gⱼ =
+/// g·2^(e_d + 32 − F − lz), μⱼ = mu·2^(e_γ + 32 − F − lz); Gⱼ = g >> (e_ν − e_g) (gⱼ in ν units)
+/// = g >> (`g` + lz − e_d); Mⱼ = mu >> t with t = −(e_ν + e_μ + 24 + 32) = `t` + lz − e_γ
+/// (ΔUᵢⱼ = νᵢ μⱼ in I8F24 = hi32(ν_raw·Mⱼ)); 1 + q = 2^31 + q >> s_q in units 2^−31 with
+/// s_q = −31 − e_q = `q` + (lz − e_d) + (lz − e_γ).
+struct ChainConsts {
+    g: i32,
+    t: i32,
+    q: i32,
+}
+
+impl ChainConsts {
+    fn new(_cfg: &RlsConfig, e_nu: i32) -> Self {
+        Self {
+            g: e_nu - 32 + F_FRAC_BITS,
+            t: -e_nu - 88 + F_FRAC_BITS,
+            q: -127 + 2 * F_FRAC_BITS,
+        }
+    }
+}
+
+/// D's stored form: above `cap_exp` the cap itself (flagged), below [`EXP_MIN`] the smallest
+/// positive value; `m` normalised.
+#[inline(always)]
+fn store_d(m: u32, e: i32, cap_exp: i32, capped: &mut bool) -> Dyadic {
+    if e.wrapping_sub(EXP_MIN) as u32 <= cap_exp.wrapping_sub(EXP_MIN) as u32 {
+        // m ≥ 2^31 and EXP_MIN ≤ e ≤ cap_exp ≤ EXP_MAX.
+        Dyadic::from_parts(m, e)
+    } else if e > cap_exp {
+        *capped = true;
+        Dyadic::from_parts(u32::MAX, cap_exp)
+    } else {
+        Dyadic::MIN_POSITIVE
+    }
+}
+
+/// νᵢ (floor) from its accumulator words.
+#[inline(always)]
+fn nu_of(lo: u32, hi: i32) -> i32 {
+    (hi << (32 - U_FRAC_BITS)) | (lo >> U_FRAC_BITS) as i32
+}
+
+/// The accumulator plus `u·g`, as words.
+#[inline(always)]
+fn nu_acc(lo: u32, hi: i32, u: i32, g: i32) -> (u32, i32) {
+    let acc = ((i64::from(hi) << 32) | i64::from(lo)) + mul_i32_wide(u, g);
+    (acc as u32, (acc >> 32) as i32)
+}
+
+/// `wide[j]` for a column whose ΔU is the rounded high word of νᵢ·Mⱼ (the common case).
+const NARROW: i8 = 0;
+
+/// `wide[j]` for a column whose ΔU is νᵢ·Mⱼ·2^s (|s| ≤ 63): s + 64, never [`NARROW`].
+#[inline(always)]
+fn wide_code(s: i32) -> i8 {
+    (s.clamp(-32, 63) + 64) as i8
+}
+
+/// Uᵢⱼ + νᵢ·Mⱼ·2^s for a wide column (`code` its [`wide_code`]): early updates from a large
+/// P₀, out of line (the common column's ΔU is the rounded high word, in line).
+#[cold]
+#[inline(never)]
+fn wide_entry(u: i32, nu: i32, m_mu: i32, code: i8, sat: &mut bool) -> i32 {
+    add_shifted(u, mul_i32_wide_compact(nu, m_mu), i32::from(code) - 64, sat)
+}
+
+/// u + round(p·2^s) (half up) for |p| ≤ 2^62 and −32 ≤ s ≤ 63, saturating (flagged); a
+/// round(p·2^s) beyond `i32` saturates to p's sign. From the two 32-bit words only (a 64-bit
+/// variable shift is long, and a library call on Armv6-M); with s = −32 it is
+/// `add_sat_i32(u, mul_hi_round(..))`, the narrow columns' ΔU (tested).
+#[inline(always)]
+fn add_shifted(u: i32, p: i64, s: i32, sat: &mut bool) -> i32 {
+    let (hi, lo) = ((p >> 32) as i32, p as u32);
+    let v = if s < 0 {
+        // (p + 2^(k−1)) >> k for k = −s in 1..=32; the sum stays below 2^63.
+        let k = s.unsigned_abs();
+        let (lo, carry) = lo.overflowing_add(1u32.wrapping_shl(k - 1));
+        let hi = hi.wrapping_add(i32::from(carry));
+        if k >= 32 {
+            Some(hi)
+        } else {
+            let v = ((lo >> k) | ((hi as u32) << (32 - k))) as i32;
+            (hi >> k == v >> 31).then_some(v)
+        }
+    } else {
+        // p·2^s fits an i32 iff p does and the shift keeps its sign bits.
+        let x = lo as i32;
+        if hi != x >> 31 {
+            None
+        } else if s < 32 {
+            let y = x << s;
+            (y >> s == x).then_some(y)
+        } else {
+            (x == 0).then_some(0)
+        }
+    };
+    match v {
+        Some(v) => add_sat_i32(u, v, sat),
+        None => {
+            *sat = true;
+            if p > 0 { i32::MAX } else { i32::MIN }
         }
     }
 }
@@ -771,27 +948,28 @@ impl RlsConfig {
             }
         }
 
-        // f = Uᵀφ̂: exact I7F57 sum (module doc), rounded once to I7F25 (its high word). With
-        // it, ν's block exponent: gⱼ = dⱼ|f̂ⱼ| < 2^Bⱼ, Bⱼ = e(dⱼ) + 32 + bitlen(f̂ⱼ) − 25.
+        // f = Uᵀφ̂: exact I11F53 sum (module doc), rounded once to I11F21 (its high word). With
+        // it, ν's block exponent: |gⱼ| = dⱼ|f̂ⱼ| < 2^Bⱼ, Bⱼ = e(dⱼ) + 32 + bⱼ − F where |f̂ⱼ| ≤ 2^bⱼ,
+        // bⱼ the bit length of |f̂ⱼ| or |f̂ⱼ| − 1 (f̂ ^ (f̂ >> 31): one instruction).
         let mut fh = [0i32; MAX_PARAMS];
         let mut b_max = i32::MIN;
         let mut u_or = 0u32;
-        for (j, ((col, fj), dj)) in u_i8f24
-            .chunks_exact(n)
+        for (j, ((col, fj), dj)) in columns(u_i8f24, n)
             .zip(fh.iter_mut())
             .zip(d.iter())
             .enumerate()
         {
+            let col = col.get(..j).unwrap_or_default();
             let phi_j = phi.get(j).copied().unwrap_or(0);
             let mut acc = i64::from(phi_j) << U_FRAC_BITS;
-            for (uij, ph) in col.iter().take(j).zip(phi.iter()) {
+            for (uij, ph) in col.iter().zip(phi.iter()) {
                 acc += mul_i32_wide(*uij, *ph);
-                u_or |= uij.unsigned_abs();
+                u_or |= (uij ^ (uij >> 31)) as u32;
             }
             *fj = ((acc + (1 << 31)) >> 32) as i32;
             if *fj != 0 {
-                let bl = 32 - leading_zeros_u32(fj.unsigned_abs()) as i32;
-                b_max = b_max.max(dj.exp() + 32 + bl - F_FRAC_BITS);
+                let bl = 32 - leading_zeros_u32((*fj ^ (*fj >> 31)) as u32) as i32;
+                b_max = b_max.max(dj.exp() + bl + (32 - F_FRAC_BITS));
             }
         }
         if b_max == i32::MIN {
@@ -805,8 +983,8 @@ impl RlsConfig {
             let mut s = Pos::TINY;
             for (fj, dj) in fh.iter().zip(d.iter()) {
                 if *fj != 0 {
-                    let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
-                    s = s.add(Pos::of(*dj).mul(f).mul(f));
+                    let f = Pos::of_u32_compact(fj.unsigned_abs(), -F_FRAC_BITS);
+                    s = s.add(Pos::of(*dj).mul_compact(f).mul_compact(f));
                 }
             }
             let excitation = Pos {
@@ -819,70 +997,63 @@ impl RlsConfig {
             }
         }
 
-        // The column loop.
-        let lambda_inv = Pos::of(self.lambda_inv);
-        let mut gamma = Pos {
-            m: lambda_inv.m,
-            e: lambda_inv.e - 2 * sigma,
-        };
-        let mut nu = [0i32; MAX_PARAMS];
-        let (mut sat, mut capped) = (false, false);
-        let cap_exp = self.d_cap_exp;
-        let with_trace = matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_));
-        let mut trace = Pos::TINY;
-        for (j, (col, (dj, &fj))) in u_i8f24
-            .chunks_exact_mut(n)
-            .zip(d.iter_mut().zip(fh.iter()))
-            .enumerate()
-        {
-            let d_old = Pos::of(*dj);
-            let col_j = col.get_mut(..j).unwrap_or_default();
-            if fj == 0 {
-                // gⱼ = μⱼ = 0: rⱼ = 1, U's column and ν unchanged, νⱼ = 0.
-                *dj = d_old.mul(lambda_inv).store(cap_exp, &mut capped);
-            } else {
-                let neg = fj < 0;
-                let f = Pos::of_u32(fj.unsigned_abs(), -F_FRAC_BITS);
-                let g = d_old.mul(f); // |gⱼ|
-                let mu = f.mul(gamma); // |μⱼ|
-                let r = g.mul(mu).one_plus().recip();
-                gamma = gamma.mul(r);
-                *dj = d_old.mul(r).mul(lambda_inv).store(cap_exp, &mut capped);
-
-                // gⱼ in ν units: below 2^(31−H) (shift ≥ H + 1).
-                let g_nu = g.shr_round(e_nu - g.e) as i32;
-                let g_nu = if neg { -g_nu } else { g_nu };
-                // ΔUᵢⱼ = νᵢ μⱼ in I8F24 = ν_raw · m_μ · 2^(e_ν + e_μ + 28) = hi32(ν_raw · Mⱼ)
-                // with Mⱼ = m_μ >> t, t = −(e_ν + e_μ + 28 + 32); μⱼ's sign is −fⱼ's.
-                let t = -(e_nu + mu.e + U_FRAC_BITS as i32 + 32);
-                if t >= 1 {
-                    let m_mu = mu.shr_round(t).min(i32::MAX as u32) as i32;
-                    let m_mu = if neg { m_mu } else { -m_mu };
-                    for (uij, nui) in col_j.iter_mut().zip(nu.iter_mut()) {
-                        let u_old = *uij;
-                        *uij = add_sat_i32(u_old, mul_hi_round(*nui, m_mu), &mut sat);
-                        *nui = add_sat_i32(*nui, mul_u_round(u_old, g_nu), &mut sat);
-                    }
+        // The column chain (D, γ, each column's Mⱼ over φ̂ⱼ and Gⱼ over f̂ⱼ), then the U/ν triangle.
+        let mut wide = [NARROW; MAX_PARAMS];
+        let (gamma, capped) = self.column_chain(d, &mut phi, &mut fh, &mut wide, e_nu, sigma);
+        let (g_m, g_e) = (gamma.m, gamma.e);
+        // The U/ν triangle column by column: Uᵢⱼ ← Uᵢⱼ + νᵢ μⱼ, νᵢ ← νᵢ + Uᵢⱼ(old) gⱼ for
+        // i < j, νⱼ = gⱼ; ν·2^24 in 64-bit accumulators (two arrays of words, zeroed in line),
+        // exact: the headroom H keeps νᵢ below 2^31 in ν units.
+        let mut nu_lo = [0u32; MAX_PARAMS];
+        let mut nu_hi = [0i32; MAX_PARAMS];
+        let mut sat = false;
+        // Column j: its entries above the diagonal (`col`, the first j of the column), Mⱼ, Gⱼ and
+        // the column's kind.
+        let mut column = |j: usize, col: &mut [i32], m_mu: i32, gn: i32, wj: i8| {
+            for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
+                let u_old = *uij;
+                let nu = nu_of(*lo, *hi);
+                *uij = if wj == NARROW {
+                    add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
                 } else {
-                    // A large ΔU (early updates from a large P₀): the 64-bit product, shifted
-                    // and narrowed.
-                    let s = -32 - t;
-                    for (uij, nui) in col_j.iter_mut().zip(nu.iter_mut()) {
-                        let u_old = *uij;
-                        let p = mul_i32_u32_wide(*nui, mu.m);
-                        let du = shift_round_i64(if neg { p } else { -p }, s);
-                        *uij = sat_i32(i64::from(u_old).saturating_add(du), &mut sat);
-                        *nui = add_sat_i32(*nui, mul_u_round(u_old, g_nu), &mut sat);
-                    }
-                }
-                if let Some(nj) = nu.get_mut(j) {
-                    *nj = g_nu;
-                }
+                    wide_entry(u_old, nu, m_mu, wj, &mut sat)
+                };
+                (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
             }
-            if with_trace {
-                // trace(P) of the new factors, column by column ([`trace_of`]'s sum).
-                let term = trace_term(col_j, *dj);
-                trace = trace.add(term);
+            if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
+                *lo = (gn as u32) << U_FRAC_BITS;
+                *hi = gn >> (32 - U_FRAC_BITS);
+            }
+        };
+        // The same columns in the same order on every target; only how the loop walks them
+        // differs (measured: on Armv6-M indexed columns spill less, on Armv7-M the chunked
+        // iterator is shorter).
+        if ARMV6M {
+            let mut start = 0;
+            for (j, ((&m_mu, &gn), &wj)) in phi
+                .iter()
+                .zip(fh.iter())
+                .zip(wide.iter())
+                .enumerate()
+                .take(n)
+            {
+                column(
+                    j,
+                    u_i8f24.get_mut(start..start + j).unwrap_or_default(),
+                    m_mu,
+                    gn,
+                    wj,
+                );
+                start += n;
+            }
+        } else {
+            for (j, (((col, &m_mu), &gn), &wj)) in columns_mut(u_i8f24, n)
+                .zip(phi.iter())
+                .zip(fh.iter())
+                .zip(wide.iter())
+                .enumerate()
+            {
+                column(j, col.get_mut(..j).unwrap_or_default(), m_mu, gn, wj);
             }
         }
 
@@ -891,40 +1062,141 @@ impl RlsConfig {
         // amount per update: usually a left shift of a 32-bit Kᵢ, exact).
         let e_abs = eps.raw().unsigned_abs();
         if e_abs != 0 {
-            let c = gamma.mul(Pos::of_u32(e_abs, -16));
-            let m_c = (c.m >> 1) as i32;
+            let lz = leading_zeros_u32(e_abs);
+            let c_m = mul_hi_u32(g_m, e_abs << lz); // [2^30, 2^32)
+            let m_c = (c_m >> 1) as i32;
             let m_c = if eps.raw() < 0 { -m_c } else { m_c };
-            let a = e_nu + c.e + sigma + THETA_FRAC_BITS as i32 + 33;
-            for ((th, out), &nui) in theta_i16f48.iter_mut().zip(theta.iter_mut()).zip(nu.iter()) {
-                let k = mul_hi_round(nui, m_c);
-                let dth = if (0..=31).contains(&a) {
-                    // |Kᵢ| < 2^31: |Δθ| < 2^62.
-                    i64::from(k) << a
-                } else {
-                    shift_round_i64(i64::from(k), a)
-                };
-                let new = match th.checked_add(dth) {
-                    Some(x) => x,
-                    None => {
-                        sat = true;
-                        if dth > 0 { i64::MAX } else { i64::MIN }
-                    }
-                };
-                *th = new;
-                *out = ParamI12F20::from_raw(theta_out(new, &mut sat));
+            let a = e_nu + g_e + 16 - lz as i32 + sigma + THETA_FRAC_BITS as i32 + 33;
+            let gains = nu_lo
+                .iter()
+                .zip(nu_hi.iter())
+                .map(|(lo, hi)| nu_of(*lo, *hi));
+            let thetas = theta_i16f48.iter_mut().zip(theta.iter_mut());
+            if (0..=31).contains(&a) {
+                for ((th, out), nu) in thetas.zip(gains) {
+                    // |Kᵢ| < 2^31: |Δθ| < 2^62; the two words by 32-bit shifts. A wrapped sum
+                    // is beyond the read-out's range (|θ| ≥ 2^59): checked there.
+                    let k = mul_hi_round(nu, m_c);
+                    let dth = (i64::from((k >> 1) >> (31 - a)) << 32) | i64::from((k as u32) << a);
+                    let new = th.wrapping_add(dth);
+                    let hi = (new >> 32) as i32;
+                    *out = if hi >> 27 == hi >> 31 {
+                        *th = new;
+                        ParamI12F20::from_raw(theta_round(new))
+                    } else {
+                        *th = th.saturating_add(dth);
+                        ParamI12F20::from_raw(theta_out(*th, &mut sat))
+                    };
+                }
+            } else {
+                for ((th, out), nu) in thetas.zip(gains) {
+                    // (Rare: the product off line on Armv6-M.)
+                    let k = ((mul_i32_wide_compact(nu, m_c) + (1 << 31)) >> 32) as i32;
+                    let dth = shift_round_i64(i64::from(k), a);
+                    *th = th.saturating_add(dth);
+                    *out = ParamI12F20::from_raw(theta_out(*th, &mut sat));
+                }
             }
         }
 
         let mut status = Status::UPDATED;
         status.set_if(Status::SATURATED, sat);
         if capped {
-            if cap_exp < EXP_MAX {
+            if self.d_cap_exp < EXP_MAX {
                 status |= Status::COVARIANCE_BOUNDED;
             } else {
                 status |= Status::COVARIANCE_SATURATED;
             }
         }
-        status | self.bound_covariance(u_i8f24, d, trace.to_dyadic())
+        let tr = if matches!(self.bound, Bound::Trace(_) | Bound::ConstantTrace(_)) {
+            trace_of(u_i8f24, d, n)
+        } else {
+            Dyadic::ZERO
+        };
+        status | self.bound_covariance(u_i8f24, d, tr)
+    }
+
+    /// The column chain: for each column j, gⱼ = dⱼ fⱼ, μⱼ = −fⱼ γⱼ₋₁, qⱼ = gⱼ|μⱼ|,
+    /// rⱼ = 1/(1 + qⱼ), γⱼ = γⱼ₋₁ rⱼ, dⱼ ← cap(dⱼ rⱼ / λ), and the column's Mⱼ (μⱼ pre-shifted
+    /// for the U update, into `m_col`, over φ̂) and Gⱼ (gⱼ in ν units, into `g_col`, over f̂);
+    /// a column whose ΔU needs the 64-bit path has its [`wide_code`] in `wide` (else [`NARROW`]). Returns γ_N and
+    /// whether a dⱼ met its cap. Products are the high words of 32×32 multiplies, normalised
+    /// only where a mantissa is kept (γ, D): gⱼ, μⱼ ∈ [2^30, 2^32), qⱼ ∈ [2^28, 2^32). Inlined
+    /// into the one kernel body (a call of its own measured dearer).
+    #[inline(always)]
+    fn column_chain(
+        &self,
+        d: &mut [Dyadic],
+        m_col: &mut [i32; MAX_PARAMS],
+        g_col: &mut [i32; MAX_PARAMS],
+        wide: &mut [i8; MAX_PARAMS],
+        e_nu: i32,
+        sigma: i32,
+    ) -> (Pos, bool) {
+        let (l_m, l_e) = (self.lambda_inv.mant(), self.lambda_inv.exp());
+        let cap_exp = self.d_cap_exp;
+        // γ₀ = 1/(λ·4^σ).
+        let mut gamma = Pos {
+            m: l_m,
+            e: l_e - 2 * sigma,
+        };
+        let k = ChainConsts::new(self, e_nu);
+        // Mⱼ replaces φ̂ⱼ and Gⱼ replaces f̂ⱼ (both dead once read); a column whose ΔU needs the
+        // 64-bit path has its [`wide_code`] in `wide` ([`NARROW`]: none).
+        let mut capped = false;
+        for (((dj, gj), mj), wj) in d
+            .iter_mut()
+            .zip(g_col.iter_mut())
+            .zip(m_col.iter_mut())
+            .zip(wide.iter_mut())
+        {
+            let (d_m, d_e) = (dj.mant(), dj.exp());
+            let fj = *gj;
+            // dⱼ·rⱼ as (d_m, d_e): dⱼ itself when f̂ⱼ = 0 (rⱼ = 1, gⱼ = μⱼ = 0: U's column, γ
+            // and ν unchanged, νⱼ = 0).
+            let (mut d_m, mut d_e) = (d_m, d_e);
+            *mj = 0;
+            if fj != 0 {
+                let sgn = fj >> 31; // 0 or −1
+                let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
+                let lz = leading_zeros_u32(f_abs);
+                let f_m = f_abs << lz;
+                let a = lz as i32 - d_e;
+                let b = lz as i32 - gamma.e;
+                // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
+                let g = mul_hi_u32(d_m, f_m);
+                let gn = g.checked_shr((k.g + a) as u32).unwrap_or(0) as i32;
+                *gj = (gn ^ sgn).wrapping_sub(sgn);
+                // Mⱼ, with μⱼ's sign (−fⱼ's).
+                let mu = mul_hi_u32(f_m, gamma.m);
+                let t = k.t + b;
+                let m_mu = if t >= 1 {
+                    mu.checked_shr(t as u32).unwrap_or(0) as i32
+                } else {
+                    // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
+                    // mu/2, shifted by −t − 31 and narrowed, saturating.
+                    *wj = wide_code(-t - 31);
+                    (mu >> 1) as i32
+                };
+                *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
+                // rⱼ = 1/(1 + qⱼ), then γ.
+                let q = mul_hi_u32(g, mu);
+                let s_q = k.q + a + b;
+                let (w, w_e) = if s_q >= 1 {
+                    // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
+                    ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -31)
+                } else {
+                    one_plus_large(q, -31 - s_q)
+                };
+                // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e).
+                let (x2, r_e) = (recip_q61(w) << 1, -62 - w_e);
+                gamma = Pos::of_normalised(mul_hi_u32(gamma.m, x2), gamma.e + r_e + 32);
+                (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e + r_e + 32);
+            }
+            let (m, e) = normalise(mul_hi_u32(d_m, l_m), d_e + l_e + 32);
+            *dj = store_d(m, e, cap_exp, &mut capped);
+        }
+        (gamma, capped)
     }
 
     /// Applies a trace, diagonal or constant-trace bound after an update (scales D); `tr` is
@@ -1063,8 +1335,8 @@ mod tests {
                 assert!(w.m >= 1 << 31);
                 let want = 1.0 + pos_f64(q);
                 assert!(((pos_f64(w) - want) / want).abs() < 2f64.powi(-30), "{e}");
-                let r = w.recip();
-                assert!((pos_f64(r) * want - 1.0).abs() < 2f64.powi(-29), "{e}");
+                let r = f64::from(recip_q61(w.m)) * 2f64.powi(-61 - w.e);
+                assert!((r * want - 1.0).abs() < 2f64.powi(-28), "{e}");
             }
         }
     }
@@ -1191,6 +1463,39 @@ mod tests {
             }
             let expected = (mul_i32_wide(a, b) + (1i64 << (s - 1))) >> s;
             assert_eq!(i64::from(mul_hi_round(a, pre)), expected, "{a} {b} {s}");
+        }
+    }
+
+    #[test]
+    fn wide_delta_u_equals_the_64_bit_shift_and_the_narrow_one() {
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..200_000 {
+            let u = next() as i32;
+            let bits = (next() % 63) as u32;
+            let p = (next() as i64) >> (63 - bits.max(1)) >> 1; // |p| < 2^62
+            let s = (next() % 96) as i32 - 32;
+            let (mut a, mut b) = (false, false);
+            let v = shift_round_i64(p, s);
+            let want = if i32::try_from(v).is_ok() {
+                sat_i32(i64::from(u) + v, &mut a)
+            } else {
+                a = true;
+                if p > 0 { i32::MAX } else { i32::MIN }
+            };
+            assert_eq!(add_shifted(u, p, s, &mut b), want, "{u} {p} {s}");
+            assert_eq!(a, b);
+            if s == -32 {
+                let (m, n) = (next() as i32, next() as i32);
+                let mut c = false;
+                let narrow = add_sat_i32(u, mul_hi_round(m, n), &mut c);
+                assert_eq!(add_shifted(u, mul_i32_wide(m, n), -32, &mut b), narrow);
+            }
         }
     }
 

@@ -50,6 +50,76 @@ pub fn leading_zeros_u32(x: u32) -> u32 {
     }
 }
 
+/// Leading zeros of a 32-bit `x` expected to be nearly normalised (`x ≥ 2^28` in the RLS
+/// kernel's products): one `CLZ` on Armv7-M; on Armv6-M up to four compares before the general
+/// search. The same result as [`leading_zeros_u32`] for every `x`.
+#[inline(always)]
+pub fn leading_zeros_near(x: u32) -> u32 {
+    if ARMV6M {
+        if x >= 1 << 31 {
+            0
+        } else if x >= 1 << 30 {
+            1
+        } else if x >= 1 << 29 {
+            2
+        } else if x >= 1 << 28 {
+            3
+        } else {
+            leading_zeros_far(x)
+        }
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// [`leading_zeros_u32`] for code off the per-sample path (covariance bounds, gates): on Armv6-M
+/// the one out-of-line copy of the search instead of one in line per use (flash); on Armv7-M one
+/// `CLZ`. The same result.
+#[inline(always)]
+pub fn leading_zeros_compact(x: u32) -> u32 {
+    if ARMV6M {
+        leading_zeros_far(x)
+    } else {
+        x.leading_zeros()
+    }
+}
+
+/// [`mul_u32_wide`] for code off the per-sample path (covariance bounds, gates, rare branches):
+/// on Armv6-M one shared out-of-line copy of the product by halves instead of one in line per
+/// use (flash); on Armv7-M the one `UMULL` in line. The same result.
+#[inline(always)]
+pub fn mul_u32_wide_compact(a: u32, b: u32) -> u64 {
+    if ARMV6M {
+        mul_u32_wide_shared(a, b)
+    } else {
+        u64::from(a) * u64::from(b)
+    }
+}
+
+/// [`mul_i32_wide`] off the per-sample path, as [`mul_u32_wide_compact`].
+#[inline(always)]
+pub fn mul_i32_wide_compact(a: i32, b: i32) -> i64 {
+    if ARMV6M {
+        let p = mul_u32_wide_shared(a.unsigned_abs(), b.unsigned_abs()) as i64;
+        if (a < 0) != (b < 0) { -p } else { p }
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
+/// The out-of-line product of [`mul_u32_wide_compact`] on Armv6-M.
+#[inline(never)]
+fn mul_u32_wide_shared(a: u32, b: u32) -> u64 {
+    mul_u32_wide_by_halves(a, b)
+}
+
+/// [`leading_zeros_u32`] out of line: the rare end of [`leading_zeros_near`] (one copy in the
+/// image instead of one per use).
+#[inline(never)]
+fn leading_zeros_far(x: u32) -> u32 {
+    leading_zeros_u32(x)
+}
+
 /// `y >> s` (arithmetic) for `1 ≤ s ≤ 63` (outside that range the result is unspecified, not
 /// UB). On Armv6-M a variable 64-bit shift is a library call (`__aeabi_lasr`), so it is built
 /// there from 32-bit shifts of the two halves; both paths give the same result (tests).
@@ -151,6 +221,27 @@ pub fn mul_i32_wide_by_halves(a: i32, b: i32) -> i64 {
     if (a < 0) != (b < 0) { -p } else { p }
 }
 
+/// The high word of `a · b`, `floor(a·b / 2^32)`: one `UMULL` on Armv7-M, four 16×16 products on
+/// Armv6-M. Exact on every target.
+#[inline(always)]
+pub fn mul_hi_u32(a: u32, b: u32) -> u32 {
+    (mul_u32_wide(a, b) >> 32) as u32
+}
+
+/// The Armv6-M path of [`mul_hi_u32`], callable on every target so the tests can compare paths.
+/// (Written through the 64-bit sum of the partial products: LLVM recognises a high word summed
+/// from 32-bit halves as a 64-bit multiply and calls `__aeabi_lmul` for it on Armv6-M.)
+#[inline(always)]
+pub fn mul_hi_u32_by_halves(a: u32, b: u32) -> u32 {
+    (mul_u32_wide_by_halves(a, b) >> 32) as u32
+}
+
+/// `floor(a·b / 2^32)` for signed operands (`SMMUL` on Armv7E-M).
+#[inline(always)]
+pub fn mul_hi_i32(a: i32, b: i32) -> i32 {
+    (mul_i32_wide(a, b) >> 32) as i32
+}
+
 /// Seed table: `T[i] ≈ 2^15 · 512 / (256 + i + ½)`, 1/m̄ in U1F15 for the mantissa interval
 /// starting at `(256 + i) / 512`. Built at compile time.
 #[allow(clippy::indexing_slicing)] // compile-time evaluation: i < 256 by the loop bound
@@ -206,6 +297,46 @@ pub fn recip_u32(m: u32) -> u32 {
     if x < 1 << 30 { u32::MAX } else { x }
 }
 
+/// `floor(a·b / 2^32)` for `|a| < 2^24` and `0 ≤ b < 2^30 + 2^16` (the Newton correction of
+/// [`recip_q61`]): `SMMUL` on Armv7E-M; on Armv6-M four 16×16 products summed in 32 bits (the
+/// general signed path takes absolute values and a 64-bit negation). Exact under the bounds, so
+/// both paths agree (tested over the reciprocal's operands).
+#[inline(always)]
+pub fn mul_hi_i32_newton(a: i32, b: i32) -> i32 {
+    if ARMV6M {
+        let (ah, al) = (a >> 16, a & 0xFFFF);
+        let (bh, bl) = (b >> 16, b & 0xFFFF);
+        // a·b = ah·bh·2^32 + (ah·bl + al·bh)·2^16 + al·bl; |ah·bl| < 2^24, al·bh < 2^30 and
+        // al·bl < 2^32: the middle sum with the carry of the low product stays below 2^31.
+        let low = ((al as u32) * (bl as u32)) >> 16;
+        let mid = ah * bl + al * bh + low as i32;
+        ah * bh + (mid >> 16)
+    } else {
+        mul_hi_i32(a, b)
+    }
+}
+
+/// `≈ 2^61 / w` for a normalised `2^31 ≤ w < 2^32` (result in `(2^29, 2^30 + 3)`): the 256-entry
+/// seed of [`recip_q63`] and two Newton steps in 32-bit arithmetic, each one unsigned and one
+/// signed high-word multiply (`UMULL`, `SMMLA` on Armv7E-M). The result is at most 2 above
+/// `2^61/w` and 2 below its floor (tested): below 2^31, so it is a positive `i32` in every step
+/// and needs no clamp. No division: the RLS kernel's reciprocal of `1 + q`.
+#[inline(always)]
+pub fn recip_q61(w: u32) -> u32 {
+    let idx = ((w >> 23) & 0xFF) as usize;
+    // T[i]·2^14 ≈ 2^61/w for w in the i-th interval (< 2^30).
+    let mut x = u32::from(RECIP_SEED_U1F15.get(idx).copied().unwrap_or(0x8000)) << 14;
+    for _ in 0..2 {
+        // w·x/2^32 ≈ 2^29: e = 2^29 − p is the relative error in units of 2^−29, |e| < 2^21
+        // after the seed; 8e = −8p mod 2^32 fits an i32.
+        let p = mul_hi_u32(w, x);
+        let e8 = p.wrapping_mul(8).wrapping_neg() as i32;
+        // x += x·e/2^29 = hi32(8e·x); x < 2^31 is a positive i32.
+        x = x.wrapping_add_signed(mul_hi_i32_newton(e8, x as i32));
+    }
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,6 +358,7 @@ mod tests {
             for &b in &vals {
                 assert_eq!(mul_u32_wide_by_halves(a, b), u64::from(a) * u64::from(b));
                 assert_eq!(mul_u32_wide(a, b), u64::from(a) * u64::from(b));
+                assert_eq!(mul_u32_wide_compact(a, b), u64::from(a) * u64::from(b));
             }
         }
         assert_eq!(mul_i32_wide(i32::MIN, i32::MIN), 1 << 62);
@@ -238,6 +370,7 @@ mod tests {
                     "{a} {b}"
                 );
                 assert_eq!(mul_i32_wide(a, b), i64::from(a) * i64::from(b));
+                assert_eq!(mul_i32_wide_compact(a, b), i64::from(a) * i64::from(b));
             }
         }
         for x in [
@@ -261,6 +394,11 @@ mod tests {
             assert_eq!(bit_len_u64(x), 64 - x.leading_zeros() as i32);
             let x32 = x as u32;
             assert_eq!(leading_zeros_u32(x32), x32.leading_zeros(), "{x32:#x}");
+            assert_eq!(leading_zeros_compact(x32), x32.leading_zeros(), "{x32:#x}");
+            for k in 0..32 {
+                let y = x32 >> k;
+                assert_eq!(leading_zeros_near(y), y.leading_zeros(), "{y:#x}");
+            }
             assert_eq!(
                 (32 - bit_len_u64_by_search(u64::from(x32))) as u32,
                 x32.leading_zeros()
@@ -346,5 +484,88 @@ mod tests {
                 assert!(exact - got <= 1 && got <= exact, "m = {m:#x}");
             }
         }
+    }
+
+    #[test]
+    fn high_word_by_halves_is_exact() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        let edge = [
+            0u32,
+            1,
+            0xFFFF,
+            0x1_0000,
+            0x8000_0000,
+            0xFFFF_FFFF,
+            0xFFFF_0001,
+        ];
+        for &a in &edge {
+            for &b in &edge {
+                assert_eq!(
+                    mul_hi_u32_by_halves(a, b),
+                    ((u64::from(a) * u64::from(b)) >> 32) as u32
+                );
+            }
+        }
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let (a, b) = (x as u32, (x >> 32) as u32);
+            assert_eq!(
+                mul_hi_u32_by_halves(a, b),
+                ((u64::from(a) * u64::from(b)) >> 32) as u32
+            );
+            assert_eq!(
+                mul_hi_u32(a, b),
+                ((u64::from(a) * u64::from(b)) >> 32) as u32
+            );
+            let (sa, sb) = (a as i32, b as i32);
+            assert_eq!(
+                mul_hi_i32(sa, sb),
+                ((i64::from(sa) * i64::from(sb)) >> 32) as i32
+            );
+        }
+    }
+
+    #[test]
+    fn reciprocal_q61_is_within_two_units() {
+        let check = |w: u32| {
+            // The Newton steps' operands meet mul_hi_i32_newton's bounds (|e8| < 2^24,
+            // x < 2^30 + 2^16), where its two paths agree.
+            let idx = ((w >> 23) & 0xFF) as usize;
+            let mut x = u32::from(RECIP_SEED_U1F15[idx]) << 14;
+            for _ in 0..2 {
+                let e8 = mul_hi_u32(w, x).wrapping_mul(8).wrapping_neg() as i32;
+                assert!(
+                    e8.unsigned_abs() < 1 << 24 && x < (1 << 30) + (1 << 16),
+                    "{w:#x}"
+                );
+                let exact = ((i64::from(e8) * i64::from(x)) >> 32) as i32;
+                assert_eq!(mul_hi_i32_newton(e8, x as i32), exact);
+                x = x.wrapping_add_signed(exact);
+            }
+            let exact = (1u64 << 61) / u64::from(w);
+            let got = u64::from(recip_q61(w));
+            assert!(
+                got + 2 >= exact && got <= exact + 2,
+                "w = {w:#x}: {got} vs {exact}"
+            );
+            assert!(got < 1 << 31);
+        };
+        let mut w: u32 = 1 << 31;
+        loop {
+            check(w);
+            match w.checked_add(65_521) {
+                Some(next) => w = next,
+                None => break,
+            }
+        }
+        for i in 0..256u32 {
+            for k in 0..4 {
+                check(((256 + i) << 23) + k);
+                check(((257 + i) << 23).wrapping_sub(1 + k).max(1 << 31));
+            }
+        }
+        check(u32::MAX);
     }
 }
