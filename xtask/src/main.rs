@@ -484,17 +484,26 @@ fn cost() -> bool {
         ("thumbv7em-none-eabihf", "m4f"),
         ("thumbv6m-none-eabi", "m0plus"),
     ] {
-        if !cargo(&[
-            "build",
-            "--release",
-            "--target",
-            target,
-            "--bin",
-            "sledid-bench",
-        ]) {
+        // The bench links no defmt: the workspace's thumb rustflags (`-Tdefmt.x`, for the
+        // firmware) would fail its link on a fresh clone, so RUSTFLAGS replaces them here, in a
+        // target directory of its own (no rebuild of the other thumb builds).
+        if !cargo_env(
+            &[
+                "build",
+                "--release",
+                "--target",
+                target,
+                "--bin",
+                "sledid-bench",
+            ],
+            &[
+                ("CARGO_TARGET_DIR", "target/bench"),
+                ("RUSTFLAGS", "-C link-arg=-Tlink.x"),
+            ],
+        ) {
             return false;
         }
-        let elf = format!("target/{target}/release/sledid-bench");
+        let elf = format!("target/bench/{target}/release/sledid-bench");
         for f in BENCH_FNS {
             let init = ["--init", "bench_init", "--warmup", "64", "--calls", "256"];
             let Some(text) = count_insns(&tool, &elf, f, arch, &init) else {
