@@ -614,11 +614,7 @@ mod target {
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_redesign(i: u32) -> u32 {
-            critical_section::with(|cs| {
-                let bench = BENCH.borrow_ref(cs);
-                let Some(b) = bench.as_ref() else {
-                    return 0;
-                };
+            with_bench_ref(|b| {
                 let n = b.jobs.iter().take_while(|j| j.is_some()).count().max(1);
                 match b.jobs.get(i as usize % n) {
                     Some(Some(job)) => {
@@ -631,30 +627,29 @@ mod target {
             })
         }
 
+        /// `f` on the measured run without stepping it (0 before `--init`).
+        fn with_bench_ref(f: impl FnOnce(&Bench) -> u32) -> u32 {
+            critical_section::with(|cs| BENCH.borrow_ref(cs).as_ref().map_or(0, f))
+        }
+
         /// The background's work on power-on calibration's record: the fit, θ and the first
         /// design ([`SledServo::calibrate`]), the time the fit's hand-over latency must cover.
         /// Returns 1 for a model, 0 for a refusal or without a record.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_calibrate(_i: u32) -> u32 {
-            critical_section::with(|cs| {
-                let bench = BENCH.borrow_ref(cs);
-                let Some(b) = bench.as_ref() else {
-                    return 0;
-                };
-                match &b.calibration {
-                    Some((posted, _)) => {
-                        let answer = b
-                            .ticker
-                            .config()
-                            .calibrate(core::hint::black_box(&posted.job));
-                        u32::from(matches!(
-                            core::hint::black_box(answer),
-                            Calibrated::Model { .. }
-                        ))
-                    }
-                    None => 0,
+            with_bench_ref(|b| match &b.calibration {
+                Some((posted, _)) => {
+                    let answer = b
+                        .ticker
+                        .config()
+                        .calibrate(core::hint::black_box(&posted.job));
+                    u32::from(matches!(
+                        core::hint::black_box(answer),
+                        Calibrated::Model { .. }
+                    ))
                 }
+                None => 0,
             })
         }
 

@@ -1323,7 +1323,10 @@ mod tests {
     }
 
     /// 1 + q and its reciprocal against f64 over q from 2⁻⁷⁰ to 2⁷⁰ (the column chain's two
-    /// non-multiplies): within 2⁻³⁰ relative.
+    /// non-multiplies): 1 + q within 2⁻³⁰ relative, the reciprocal within 2⁻²⁸ — measured
+    /// 2.1·10⁻⁹ = 2^−28.8 (2026-11-27): `recip_q61` is 2⁶¹/w within two units of a result
+    /// ≥ 2²⁹ (`wide::reciprocal_q61_is_within_two_units`), where the previous `Pos` reciprocal
+    /// held 2⁻²⁹. Trips on a reciprocal off by more than its Newton steps allow.
     #[test]
     fn one_plus_and_reciprocal_against_f64() {
         let mut x: u32 = 0x1234_5678;
