@@ -6,10 +6,10 @@
 //!
 //! | target | seed 1 | seed 7 | asserted here |
 //! |---|---|---|---|
-//! | 0 pulses and 0 unsettled seeks on ≥ 99 % of plants | 97.0 % | 94.5 % | ≥ 93 % (target not met) |
-//! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 99.0 % | 97.5 % | ≥ 95 % |
-//! | identified no worse than frozen on every plant | 3 plants > 1.02× | 0 | ≤ 5 (target not met) |
-//! | ≥ 20 % faster than frozen where the prior is > 30 % off | 79.5 % of 195 | 86.2 % of 196 | ≥ 75 % (target: all) |
+//! | 0 pulses and 0 unsettled seeks on ≥ 99 % of plants | 99.0 % | 99.5 % | ≥ 98.5 % (the floor over seeds 1–7, below) |
+//! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 98.5 % | 97.5 % | ≥ 95 % |
+//! | identified no worse than frozen on every plant | 2 plants > 1.02× | 0 | ≤ 5 (target not met) |
+//! | ≥ 20 % faster than frozen where the prior is > 30 % off | 80.5 % of 195 | 85.7 % of 196 | ≥ 75 % (target: all) |
 //! | holding error ≤ 1 quantum | true ≤ 1.62, 2 plants ≥ 1.5 (read ≤ 2) | see below | ≤ 2 plants per family ≥ 1.5, none ≥ 2 |
 //! | friction identified shortens settling on high-friction plants | 0.987× linear-only | 0.984× | < 1 |
 //! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 0 | 0, every variant (1 on seed 7's linear-only variant, plant 24, before the runaway test required |e| itself to grow) |
@@ -21,6 +21,15 @@
 //! 1, 0, 0 (largest 1.62, 1.95, 1.49, 1.64, 1.49, 1.48) — 4 of 1,200 plants, a measured cost of
 //! the new kernel on this statistic, not only luck. Asserted: at most 2 per family and none at 2
 //! quanta or more.
+//!
+//! Clean plants over seeds 1–7: 99.0, 99.5, 99.0, 98.5, 99.5, 99.0, 100.0 % (seeds 1, 7, 2, 3, 5,
+//! 6, 4), from 97.0, 94.5, 93.0, 94.5, 96.0, 96.5, 95.0 % before two changes: each plant's seek
+//! window is at least three times its 2,000-track minimum-time seek (`dwell_for_plant`, the seek
+//! pass's rule: the 0.3 s window was shorter than the slowest sleds' fastest seek, up to 0.36 s, and
+//! counted the plant's physics as the servo's unsettled seeks) — 99.0 / 98.0 % on seeds 1 / 7 with
+//! that alone —, and a crawling reference-following seek asks for its redesign before it reaches
+//! the settle band (`SEEK_REDESIGN_UPDATES`, `tests/scheduled_control.rs`). Asserted at the floor
+//! of the seven families: a one-plant flip on seed 1 would otherwise decide the test.
 //!
 //! What trips each: a servo without identification (clean falls to the frozen servo's ≈ 80 %,
 //! and the off-prior gain to 0), a placement off its poles (settling ratio), a hold rule that lets
@@ -52,7 +61,7 @@ fn the_servo_holds_up_on_the_plant_family() {
     for seed in [1, 7] {
         let (s, two_off) = family(seed);
         assert_eq!(s.plants, 200);
-        assert!(s.clean >= 0.93, "seed {seed}: clean {}", s.clean);
+        assert!(s.clean >= 0.985, "seed {seed}: clean {}", s.clean);
         assert!(
             s.clean >= s.clean_frozen + 0.10,
             "seed {seed}: identification earns its keep: {} vs frozen {}",
@@ -86,11 +95,14 @@ fn the_servo_holds_up_on_the_plant_family() {
             "seed {seed}: {}",
             s.hold_true_error_max_quanta
         );
-        // Every run of every variant to its schedule's end: 43,440,000 samples on seeds 1 and 7
-        // (measured; 200 plants × 100 seeks, each dwell fixed). A run cut short (an error, a
-        // schedule that ends early) lowers it; it was asserted only > 10⁷ before.
+        // Every run of every variant to its schedule's end: 46,032,900 / 47,558,100 samples on
+        // seeds 1 / 7 (measured; 200 plants × 100 seeks, each plant's window fixed by its own
+        // minimum-time seek, `dwell_for_plant`; 43,440,000 with every window 0.3 s). A run cut
+        // short (an error, a schedule that ends early) lowers it; it was asserted only > 10⁷
+        // before.
         println!("seed {seed}: {} servo samples", s.servo_samples);
-        assert_eq!(s.servo_samples, 43_440_000, "seed {seed}");
+        let samples = if seed == 1 { 46_032_900 } else { 47_558_100 };
+        assert_eq!(s.servo_samples, samples, "seed {seed}");
         assert_eq!(s.safe_stops_servo, 0, "seed {seed}: a false safe stop");
         assert_eq!(
             s.safe_stops, 0,

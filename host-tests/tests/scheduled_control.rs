@@ -787,3 +787,80 @@ fn time_optimal_seeks_settle_three_times_sooner_on_the_nominal_sled() {
     assert!(over.iter().sum::<usize>() <= 48, "{over:?}");
     assert!(over.iter().all(|&n| n <= 15), "{over:?}");
 }
+
+/// One reference-following run on the family's slow `corner` (10 seeks of 20–2,000 tracks, the
+/// paper's 30 ms S-curves, 0.3 s windows, designed from the nominal prior): per seek, whether a
+/// redesign was asked for in Seek after the reference arrived and before the sled reached the
+/// settle band, and its settling time (ms; `None`: never).
+fn crawling_seeks(seed: u64, index: u64, run_seed: u64) -> Vec<(bool, Option<f64>)> {
+    let factors = sledid_host::control::family::FamilyRanges::default().draw(seed, index);
+    let params = factors.twin(&TwinParams::default());
+    let design = sledid_host::control::design_from_prior(
+        &params,
+        &sledid_host::twin::PlantParams::default(),
+    )
+    .unwrap();
+    let run = sledid_host::control::run_with(&params, run_seed, 10, Some(&design)).unwrap();
+    let stats = run.twin.seek_stats();
+    run.twin
+        .seeks()
+        .iter()
+        .zip(&stats)
+        .map(|(seek, st)| {
+            let arrival = seek.arrival_index.unwrap_or(usize::MAX);
+            let end = seek.end_index.unwrap_or(run.trace.len());
+            let asked = (arrival..end)
+                .map_while(|k| run.trace.get(k))
+                .take_while(|(region, _)| *region == Region::Seek)
+                .any(|(_, f)| f.contains(ControlFlags::REDESIGN_REQUESTED));
+            (asked, st.settling_time_s.map(|t| t * 1e3))
+        })
+        .collect()
+}
+
+/// The family's slow sleds (seeds 1 and 7): plants whose 2,000-track minimum-time seek takes
+/// more than 0.15 s, half the twin's 0.3 s window.
+fn slow_sleds() -> Vec<(u64, u64)> {
+    let ranges = sledid_host::control::family::FamilyRanges::default();
+    [1, 7]
+        .into_iter()
+        .flat_map(|seed| (0..200).map(move |index| (seed, index)))
+        .filter(|&(seed, index)| {
+            let params = ranges.draw(seed, index).twin(&TwinParams::default());
+            sledid_host::twin::min_time_seek(&params.plant, 0.0, 2_000)
+                .is_none_or(|b| b.time_s > 0.15)
+        })
+        .collect()
+}
+
+/// A reference-following seek whose reference has arrived while the sled crawls outside the
+/// settle band on the prior's gains asks for a redesign there (`SEEK_REDESIGN_UPDATES`), not
+/// only on entering Settle. On the family's slow sleds (gain in quanta a fraction of the
+/// prior's) the prior's gains move the sled at a fraction of its speed once the reference has
+/// arrived; redesigns were asked for only in Settle, which the crawl reached late or never.
+///
+/// Over the 22 slow sleds of seeds 1 and 7, 10 seeks each, run seeds 1–3 (66 runs), measured:
+/// runs asking in Seek 57 (0 without the rule), unsettled seeks 13 of 660 (90 without), first
+/// seek settled in 58 runs (49 without). Asserted: ≥ 50 asking, ≤ 26 unsettled (twice the
+/// measurement), ≥ 54 first seeks settled. What trips it: the rule gone (no request, 90
+/// unsettled), or a redesign placed from a seek's saturated samples that the crawl does not
+/// survive.
+#[test]
+fn a_crawling_seek_is_redesigned() {
+    let plants = slow_sleds();
+    let (mut asked, mut unsettled, mut first_settled) = (0, 0, 0);
+    for (&(seed, index), run_seed) in plants.iter().flat_map(|p| [(p, 1), (p, 2), (p, 3)]) {
+        let seeks = crawling_seeks(seed, index, run_seed);
+        asked += usize::from(seeks.iter().any(|s| s.0));
+        unsettled += seeks.iter().filter(|s| s.1.is_none()).count();
+        first_settled += usize::from(seeks.first().is_some_and(|s| s.1.is_some()));
+    }
+    println!(
+        "{} slow sleds × 3 run seeds: {asked} asked in Seek, {unsettled} unsettled seeks, first seek settled on {first_settled}",
+        plants.len()
+    );
+    assert_eq!(plants.len(), 22, "the population changed");
+    assert!(asked >= 50, "{asked}");
+    assert!(unsettled <= 26, "{unsettled}");
+    assert!(first_settled >= 54, "{first_settled}");
+}

@@ -9,6 +9,10 @@
 //! | `frozen` | the same servo with identification frozen at the prior (the ablation) |
 //! | `linear_only` | the servo identifying on-line, its input compensation left at the prior's (linear-only scheduling) |
 //!
+//! Each plant's seek window is the twin's 0.3 s, or three times the plant's own 2,000-track
+//! minimum-time seek where that is longer ([`dwell_for_plant`], as the seek pass's): a window
+//! shorter than the plant's fastest seek would count its physics as the servo's unsettled seeks.
+//!
 //! Plants run in parallel (rayon); the statistics are over plants, not over a few seeds.
 //! [`FamilyStats`] holds what the servo issue's targets name; `BENCHMARKS.md` (control family)
 //! carries the table and the command.
@@ -21,6 +25,7 @@ use sledid::servo::{Identification, ServoOptions};
 use super::design::{design_from_prior, physical_model};
 use super::family::{FamilyRanges, PlantFactors};
 use super::run::run_with_options;
+use super::seek::run::dwell_for_plant;
 use super::summary::ControlSummary;
 use crate::twin::{PlantParams, TwinParams};
 
@@ -216,8 +221,11 @@ pub struct FamilyReport {
 /// A design or run error, naming the plant.
 pub fn evaluate_plant(options: &FamilyOptions, index: u64) -> Result<PlantResult, String> {
     let factors = options.ranges.draw(options.seed, index);
-    let params = factors.twin(&TwinParams::default());
+    let mut params = factors.twin(&TwinParams::default());
     let at = |e: String| format!("plant {index} ({}): {e}", factors.label());
+    let r = &params.reference;
+    params.reference.dwell_s =
+        dwell_for_plant(&params.plant, r.seek_max_tracks, r.dwell_s).map_err(at)?;
     let design = design_from_prior(&params, options.prior_for(&params.plant)).map_err(at)?;
     let mut linear = design;
     linear.identify_friction = false;

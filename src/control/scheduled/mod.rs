@@ -437,6 +437,16 @@ pub const ARRIVAL_WAIT_SAMPLES: u16 = 16;
 /// another.
 pub const SETTLE_REDESIGN_UPDATES: u32 = 32;
 
+/// Trusted identifier updates since the last redesign after which a reference-following seek
+/// whose reference has arrived, but whose sled has not reached the settle band, asks for another.
+/// On a slow sled (heavily damped, gain in quanta a tenth of the prior's) the prior's gains
+/// crawl to the target over hundreds of samples and Settle, where redesigns were asked for, never
+/// came before the next seek (`tests/control.rs`, `a_crawling_seek_is_redesigned`). Not while the
+/// reference moves: a model fitted to a saturated seek and placed mid-seek held heavy,
+/// low-friction sleds two and three cells off (seeds 2, 5, 6 of the family: largest true holding
+/// error 1.87 / 1.49 / 1.49 → 3.39 / 2.31 / 2.01 quanta).
+pub const SEEK_REDESIGN_UPDATES: u32 = 128;
+
 /// Largest θ a redesign job carries (na + nb (+ c) of the velocity model: ≤ 4).
 pub const MAX_MODEL_PARAMS: usize = 4;
 
@@ -1107,17 +1117,22 @@ impl Tally {
 
 /// A redesign on entering Settle, and again while settling once the identifier has learnt from
 /// enough motion since the last one (a loop the prior's gains leave ringing keeps moving, and
-/// keeps informing the identifier, until the gains are redesigned).
+/// keeps informing the identifier, until the gains are redesigned) — or, in a reference-following
+/// seek, once the reference has arrived and the sled still has not reached the settle band
+/// ([`SEEK_REDESIGN_UPDATES`]). Never in Hold, nor in a time-optimal seek (its plan is the model's).
 fn request_redesign_when_due(
     state: &mut ScheduledState,
     s: &Sample,
     sel: &Selection,
     flags: &mut ControlFlags,
 ) {
-    let informed = sel.region == Region::Settle
-        && !s.distrusted
-        && state.trusted_updates >= SETTLE_REDESIGN_UPDATES
-        && !state.redesign_pending;
+    let due = match sel.region {
+        Region::Settle => Some(SETTLE_REDESIGN_UPDATES),
+        Region::Seek if !s.time_optimal && s.dr1 == 0 => Some(SEEK_REDESIGN_UPDATES),
+        _ => None,
+    };
+    let informed =
+        due.is_some_and(|d| state.trusted_updates >= d) && !s.distrusted && !state.redesign_pending;
     if sel.seek_to_settle() || informed {
         state.redesign_pending = true;
         flags.insert(ControlFlags::REDESIGN_REQUESTED);

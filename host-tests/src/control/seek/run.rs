@@ -144,18 +144,25 @@ impl SeekOptions {
         p.reference.seek_distribution = SeekDistribution::LogUniform;
         p.reference.profile = profile;
         p.validate().map_err(|e| e.to_string())?;
-        let longest = min_time_seek(&p.plant, 0.0, i64::from(self.max_tracks)).ok_or_else(|| {
-            format!(
-                "the plant's rail cannot complete a {}-track seek (plant.force_per_volt_n_per_v × plant.u_max_v ≤ plant.static_n?)",
-                self.max_tracks
-            )
-        })?;
-        p.reference.dwell_s = self
-            .dwell_s
-            .max(DWELL_BOUND_FACTOR * longest.time_s + super::access::MIN_DWELL_S);
+        p.reference.dwell_s = dwell_for_plant(&p.plant, self.max_tracks, self.dwell_s)?;
         p.validate().map_err(|e| e.to_string())?;
         Ok(p)
     }
+}
+
+/// The seek window a plant needs: `dwell_s`, or [`DWELL_BOUND_FACTOR`] × the minimum-time bound
+/// of a `max_tracks` seek + [`super::access::MIN_DWELL_S`] where that is longer (a window
+/// shorter than the plant's own fastest seek measures the plant, not the servo).
+///
+/// # Errors
+/// The plant's rail cannot complete a `max_tracks` seek.
+pub fn dwell_for_plant(plant: &PlantParams, max_tracks: u32, dwell_s: f64) -> Result<f64, String> {
+    let longest = min_time_seek(plant, 0.0, i64::from(max_tracks)).ok_or_else(|| {
+        format!(
+            "the plant's rail cannot complete a {max_tracks}-track seek (plant.force_per_volt_n_per_v × plant.u_max_v ≤ plant.static_n?)"
+        )
+    })?;
+    Ok(dwell_s.max(DWELL_BOUND_FACTOR * longest.time_s + super::access::MIN_DWELL_S))
 }
 
 /// One seek of a run.
