@@ -162,9 +162,12 @@ fn calibrated_seeks_on_the_plant_family() {
         assert!(s.unsettled <= 3, "seed {seed}: {s:?}");
         assert!(s.limit_cycle_pulses <= 1, "seed {seed}: {s:?}");
         // Seek errors (`ServoFlags::SEEK_ERROR`): every unsettled seek reported; settled seeks
-        // reported all the same (settled after the seek error's budget: late, not lost)
-        // measured 3 / 12 of 10,000 (seed 2: 15), asserted at the seeds' largest.
+        // reported all the same — settled after the seek error's budget (late, not lost), or off
+        // track after settling (the reading left ±1 quantum and came back before the window's
+        // last 10 ms; `servo::calibration::watch`) — measured 39 / 35 of 10,000 (seed 2: 30;
+        // 3 / 12 / 15 before the off-track rule), asserted at the seeds' largest. Trips on a
+        // watch that reports seeks while they move or hold (thousands).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
-        assert!(s.settled_reported <= 15, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 39, "seed {seed}: {s:?}");
     }
 }

@@ -279,8 +279,9 @@ impl ServoFlags {
     /// Power-on calibration owns the drive (the reference is not followed yet).
     pub const CALIBRATING: Self = Self(1 << 4);
     /// The command in progress has not settled (±1 quantum for 10 ms) within the time its
-    /// calibrated model allows (`calibration::watch`): what a drive reports to its host as a seek
-    /// error. Raised every such sample, until it settles or a new command arrives.
+    /// calibrated model allows, or its reading left ±1 quantum after it had settled (off track;
+    /// `calibration::watch`): what a drive reports to its host as a seek error. Raised every such
+    /// sample, until it settles (again) or a new command arrives.
     pub const SEEK_ERROR: Self = Self(1 << 5);
 
     /// All flags with their names, in bit order.
