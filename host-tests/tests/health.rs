@@ -334,3 +334,41 @@ fn drift_is_flagged_after_a_friction_rise_and_not_on_healthy_sleds() {
         );
     }
 }
+
+proptest::proptest! {
+    /// No input panics the interrupt's or the background's call (overflow checks are on in the
+    /// test profile, so an unplanned wrap fails here), and a verdict is always one of the
+    /// documented states: any readings (the whole I48F16 range, jumps included), any drives,
+    /// any reference. Trips on a bare operator on the travel, the neuron's argument or ĉ's
+    /// division (Σγ = 0 must give NO_GAIN, not a division by zero).
+    #[test]
+    fn no_input_panics(
+        ys in proptest::collection::vec(proptest::num::i64::ANY, 1..200),
+        us in proptest::collection::vec(proptest::num::i32::ANY, 1..200),
+        theta in proptest::array::uniform6(proptest::num::i32::ANY),
+        c in proptest::num::i32::ANY,
+    ) {
+        use sledid::servo::health::{HealthFeed, HealthQueue};
+        let config = HealthDesign::default().build().unwrap();
+        let mut queue: HealthQueue<8> = HealthQueue::new();
+        let (mut prod, mut cons) = queue.split();
+        let mut feed = HealthFeed::new();
+        let mut st = config.new_state();
+        let reference = HealthReference {
+            coulomb_fs: sledid::ParamI12F20::from_raw(c),
+            theta0: theta.map(sledid::ParamI12F20::from_raw),
+        };
+        config.set_reference(&mut st, &reference);
+        for (k, y) in ys.iter().enumerate() {
+            let u = sledid::SignalI16F16::from_raw(us[k % us.len()]);
+            config.feed(&mut feed, &mut prod, sledid::PositionI48F16::from_raw(*y), u);
+            if k % 5 == 0 {
+                config.drain(&mut st, &mut cons);
+            }
+        }
+        config.drain(&mut st, &mut cons);
+        let v = config.verdict(&st);
+        let g: i64 = st.theta()[1..5].iter().map(|p| i64::from(p.raw())).sum();
+        proptest::prop_assert_eq!(v.flags.contains(HealthFlags::NO_GAIN), g <= 0);
+    }
+}
