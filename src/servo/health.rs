@@ -66,8 +66,8 @@
 //! Against the float64 reference (`host-tests/src/reference/health.rs`) on twin and recorded data:
 //! ĉ within 10⁻⁵ of full scale on the twin (measured 1.0·10⁻⁶) and 10⁻⁴ on the EMPS recording
 //! (measured 2.1·10⁻⁵), θ within 10⁻⁴ / 2·10⁻³, with the same update decisions; asserted in
-//! `host-tests/tests/health.rs` (`fixed_point_tracks_float64_on_twin`, `…_on_emps`). The cost on
-//! target is not measured yet.
+//! `host-tests/tests/health.rs` (`fixed_point_tracks_float64_on_twin`, `…_on_emps`). Cost per call
+//! on target: `bench_health_feed`, `bench_health_step` in BENCHMARKS.md.
 
 #![deny(clippy::float_arithmetic)]
 
