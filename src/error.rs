@@ -151,6 +151,9 @@ pub enum ConfigError {
     IdentifySpeed(f64),
     /// Servo: the redesign hand-over latency L (samples from a request to its adoption) must be ≥ 1.
     HandoverLatency(u16),
+    /// Health estimator: the neuron's slope outside (0, 128), or a speed gate or drift threshold
+    /// that is negative, not finite or out of format (`crate::servo::health::HealthDesign`).
+    Health(f64),
 }
 
 impl fmt::Display for ConfigError {
@@ -277,6 +280,10 @@ impl fmt::Display for ConfigError {
             Self::IdentifySpeed(v) => write!(
                 f,
                 "identification speed gate = {v} quanta per sample: must be finite, ≥ 0 and below 32,768"
+            ),
+            Self::Health(v) => write!(
+                f,
+                "health = {v}: the neuron slope must be in (0, 128) per quantum, the speed gate and drift thresholds finite, ≥ 0 and in format"
             ),
             Self::HandoverLatency(l) => write!(
                 f,

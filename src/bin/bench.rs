@@ -20,6 +20,10 @@ use sledid::ident::rls::{AntiWindup, RlsConfig, RlsDesign, RlsState};
 use sledid::ident::status::Status;
 use sledid::num::boundary::PositionI48F16;
 use sledid::num::fixed::{ParamI12F20, SignalI16F16};
+use sledid::servo::CalibratedModel;
+use sledid::servo::health::{
+    HealthConfig, HealthDesign, HealthFeed, HealthQueue, HealthReference, HealthSample, HealthState,
+};
 
 /// Length of the input tables (calls cycle through them).
 const TABLE: usize = 64;
@@ -187,6 +191,70 @@ impl DecimateBench {
         self.config
             .push(&mut self.state, at(&Y_TABLE, i))
             .map_or(0, |o| o.y.raw() as u32)
+    }
+}
+
+/// The health estimator (`sledid::servo::health`, default design, against a calibration of the
+/// family's plant 0): the interrupt's `feed` on a sled moving ≈ 10 quanta per sample (a push
+/// every second call; the queue is emptied, not measured, when full) and the background's `step`
+/// on one moving sample (an RLS update, n = 6).
+pub struct HealthBench {
+    config: HealthConfig,
+    feed: HealthFeed,
+    queue: HealthQueue<64>,
+    state: HealthState,
+    y_i48f16: i64,
+}
+
+impl HealthBench {
+    /// Builds the scenario.
+    pub fn new() -> Option<Self> {
+        let config = HealthDesign::default().build().ok()?;
+        let model = CalibratedModel {
+            a: 0.917,
+            gain_k: 415.5,
+            coulomb_fs: [0.0033, 0.0033],
+            breakaway_fs: [0.015, 0.015],
+            rms: 0.29,
+        };
+        let mut state = config.new_state();
+        config.set_reference(&mut state, &HealthReference::from_calibration(&model)?);
+        Some(Self {
+            config,
+            feed: HealthFeed::new(),
+            queue: HealthQueue::new(),
+            state,
+            y_i48f16: 0,
+        })
+    }
+
+    /// Call `i` of the interrupt's part.
+    pub fn call_feed(&mut self, i: u32) -> u32 {
+        if self.queue.is_full() {
+            self.queue = HealthQueue::new();
+        }
+        self.y_i48f16 = self
+            .y_i48f16
+            .wrapping_add((10 << 16) + i64::from(at(&Y_TABLE, i).raw()));
+        let (mut producer, _) = self.queue.split();
+        let flags = self.config.feed(
+            &mut self.feed,
+            &mut producer,
+            PositionI48F16::from_raw(self.y_i48f16),
+            at(&U_TABLE, i),
+        );
+        u32::from(flags == Default::default())
+    }
+
+    /// Call `i` of the background's part: one sample moving at ≈ 20 quanta per 2·Ts.
+    pub fn call_step(&mut self, i: u32) -> u32 {
+        let v = SignalI16F16::from_raw((20 << 16) + at(&Y_TABLE, i).raw());
+        let sample = HealthSample {
+            v,
+            u: [at(&U_TABLE, i), at(&U_TABLE, i.wrapping_add(1))],
+            after_drop: false,
+        };
+        u32::from(self.config.step(&mut self.state, sample).bits())
     }
 }
 
@@ -415,8 +483,8 @@ impl LoopBench {
 #[cfg(target_os = "none")]
 mod target {
     use super::{
-        ArxBench, DecimateBench, LoopBench, NeuronBench, NonlinearBench, PidBench, RlsBench,
-        ScheduledBench,
+        ArxBench, DecimateBench, HealthBench, LoopBench, NeuronBench, NonlinearBench, PidBench,
+        RlsBench, ScheduledBench,
     };
     use core::cell::RefCell;
     use cortex_m_rt::entry;
@@ -448,6 +516,7 @@ mod target {
     static REDESIGN: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static SEEK: Mutex<RefCell<Option<ScheduledBench>>> = Mutex::new(RefCell::new(None));
     static LOOP: Mutex<RefCell<Option<LoopBench>>> = Mutex::new(RefCell::new(None));
+    static HEALTH: Mutex<RefCell<Option<HealthBench>>> = Mutex::new(RefCell::new(None));
 
     /// Initialises every scenario (`--init bench_init`).
     #[unsafe(no_mangle)]
@@ -474,6 +543,7 @@ mod target {
             REDESIGN.borrow(cs).replace(ScheduledBench::new());
             SEEK.borrow(cs).replace(ScheduledBench::new_seek());
             LOOP.borrow(cs).replace(LoopBench::new());
+            HEALTH.borrow(cs).replace(HealthBench::new());
         });
     }
 
@@ -567,6 +637,30 @@ mod target {
         })
     }
 
+    /// The health estimator's interrupt part, one sample (mean over both phases of a pair).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_health_feed(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            HEALTH
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call_feed(i))
+        })
+    }
+
+    /// The health estimator's background part, one sample at 2·Ts (an update).
+    #[unsafe(no_mangle)]
+    pub extern "C" fn bench_health_step(i: u32) -> u32 {
+        critical_section::with(|cs| {
+            HEALTH
+                .borrow(cs)
+                .borrow_mut()
+                .as_mut()
+                .map_or(0, |b| b.call_step(i))
+        })
+    }
+
     /// One position-controller step (prefilter, P, I, low-passed D, saturation).
     #[unsafe(no_mangle)]
     pub extern "C" fn bench_pid_step(i: u32) -> u32 {
@@ -656,7 +750,7 @@ mod target {
 
     /// Keeps every bench entry point in the image (they are only reached by the emulator).
     #[used]
-    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 18] = [
+    static ENTRY_POINTS: [extern "C" fn(u32) -> u32; 20] = [
         bench_overhead,
         bench_rls2_update,
         bench_rls3_update,
@@ -675,6 +769,8 @@ mod target {
         bench_seek_step,
         bench_sched_redesign,
         bench_loop_step,
+        bench_health_feed,
+        bench_health_step,
     ];
 
     #[entry]
@@ -738,6 +834,14 @@ fn main() {
         let s_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(sb.call(i)));
         let r_acc = (0..500).fold(0u32, |acc, i| acc.wrapping_add(rb.call_with_redesign(i)));
         println!("scheduled checksum = {s_acc:#x}, with redesign = {r_acc:#x}");
+    }
+    if let Some(mut hb) = HealthBench::new() {
+        let f_acc = (0..5000).fold(0u32, |acc, i| acc.wrapping_add(hb.call_feed(i)));
+        let s_acc = (0..5000).fold(0u32, |acc, i| acc ^ hb.call_step(i));
+        println!(
+            "health feed checksum = {f_acc:#x}, step flags = {s_acc:#x}, θ = {:?}",
+            hb.state.theta()
+        );
     }
     println!(
         "Cost: build for thumbv7em-none-eabihf / thumbv6m-none-eabi and run count_insns.py (BENCHMARKS.md)."

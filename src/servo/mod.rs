@@ -14,8 +14,9 @@
 //! the velocity model identified while the sled moves (where the data are informative) places the
 //! seek and settle laws, whose regions switch per sample; near the target the controller works
 //! from rest, cell and band rules on the readings (`crate::control::scheduled::rest`). The paper's
-//! nonlinear models (eq. 5–7, Wiener) run beside a recording in `replay` and the study, not in the
-//! interrupt: nothing in the loop would read them.
+//! nonlinear models (eq. 5–7, Wiener) run beside a recording in `replay` and the study; the one
+//! that runs beside the servo is the friction neuron of [`health`], fed by the interrupt through
+//! a queue and identified in the background against the calibration's Coulomb level.
 //!
 //! # Configuration and state
 //! [`ServoConfig`] is validated and immutable while the loop runs; everything the loop changes —
@@ -45,6 +46,7 @@ use crate::words::{WordReader, WordWriter, Words};
 pub mod calibration;
 pub mod hal;
 pub mod handover;
+pub mod health;
 pub mod safety;
 
 pub use calibration::{

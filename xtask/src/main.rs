@@ -314,7 +314,7 @@ fn fuzz(runs: u64) -> bool {
 }
 
 /// Entry points of the bench image (src/bin/bench.rs).
-const BENCH_FNS: [&str; 18] = [
+const BENCH_FNS: [&str; 20] = [
     "bench_overhead",
     "bench_rls2_update",
     "bench_rls3_update",
@@ -333,6 +333,8 @@ const BENCH_FNS: [&str; 18] = [
     "bench_seek_step",
     "bench_sched_redesign",
     "bench_loop_step",
+    "bench_health_feed",
+    "bench_health_step",
 ];
 
 /// The `count_insns.py` script.

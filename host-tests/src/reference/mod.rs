@@ -19,6 +19,7 @@ pub mod batch;
 pub mod calibration;
 pub mod control;
 pub mod decimate;
+pub mod health;
 pub mod linear;
 pub mod neuron;
 pub mod nonlinear;

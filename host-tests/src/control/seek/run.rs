@@ -227,6 +227,9 @@ pub struct SeekSummary {
     pub calibration: Option<CalibrationBrief>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
     pub calibrations: u32,
+    /// The friction health verdict against power-on calibration (`sledid::servo::health`, run
+    /// over the recorded samples from the first seek on), when the servo calibrated.
+    pub health: Option<crate::reference::health::HealthBrief>,
 }
 
 /// A latched safe stop of a run.
@@ -275,8 +278,11 @@ impl SeekSummary {
                 st.reason, st.sample, st.seek, st.position_quanta
             )
         });
+        let health = self
+            .health
+            .map_or(String::new(), |h| format!("; {}", h.line()));
         format!(
-            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {} ({} reported as seek errors; settled but reported {}){recal}{stop}",
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {} ({} reported as seek errors; settled but reported {}){recal}{health}{stop}",
             self.controller,
             self.access_ms.median,
             self.access_ms.p95,
@@ -322,6 +328,7 @@ impl SeekSummary {
             safe_stop: None,
             calibration: None,
             calibrations: 0,
+            health: None,
         }
     }
 }
@@ -382,7 +389,19 @@ pub fn run_seeks_with_faults(
         faults,
     )?;
     let rows = rows(&run);
+    let health = controller.design().and_then(|d| {
+        let cal = run.calibration.as_ref()?;
+        let samples: Vec<(i64, f64)> = run
+            .twin
+            .samples()
+            .get(cal.samples..)?
+            .iter()
+            .map(|s| (s.y_counts, s.u_v / d.baseline.u_full_scale_v))
+            .collect();
+        crate::reference::health::health_brief(cal.model.as_ref()?, &samples)
+    });
     let summary = SeekSummary {
+        health,
         safe_stop: SafeStop::of(&run),
         calibration: run.calibration.map(|c| c.brief(params.plant.ts_s)),
         calibrations: run.calibrations,
