@@ -372,3 +372,24 @@ proptest::proptest! {
         proptest::prop_assert_eq!(v.flags.contains(HealthFlags::NO_GAIN), g <= 0);
     }
 }
+
+/// `sledid seek`'s health line (`health_brief`): on the nominal sled, 20 seeks give fewer than
+/// the estimator's 200 updates — "not ready", never "ok" (it said "ok" at 145 updates before) —
+/// and 100 seeks give a verdict ("ok": ĉ within the band of the calibrated level). Trips on a
+/// brief that reads the verdict without `NOT_READY`, or on a healthy sled reported RISEN.
+#[test]
+fn the_seek_summary_says_when_the_verdict_is_not_ready() {
+    let params = TwinParams::default();
+    let brief = |seeks: u32| {
+        let c = case(&params, 1, seeks, &[]).expect("the nominal sled calibrates");
+        sledid_host::reference::health::health_brief(&c.model, &c.samples).expect("a brief")
+    };
+    let short = brief(20);
+    println!("20 seeks: {}", short.line());
+    assert!(short.updates < 200, "{short:?}");
+    assert!(!short.ready && short.line().ends_with("not ready (too few updates)"));
+    let long = brief(100);
+    println!("100 seeks: {}", long.line());
+    assert!(long.ready && !long.drift, "{long:?}");
+    assert!(long.line().ends_with(": ok"), "{}", long.line());
+}

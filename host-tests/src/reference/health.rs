@@ -192,17 +192,22 @@ pub struct HealthBrief {
     pub drift: bool,
     /// Whether the calibrated sled is identifiable (pole ≥ `min_pole`).
     pub identifiable: bool,
+    /// Whether the estimator had its `min_updates` (`NOT_READY` clear): a verdict at all.
+    pub ready: bool,
     /// Samples dropped on a full queue.
     pub dropped: u32,
 }
 
 impl HealthBrief {
-    /// `friction ĉ X vs calibrated Y of full scale (N updates): ok | RISEN | not identifiable`.
+    /// `friction ĉ X vs calibrated Y of full scale (N updates): ok | RISEN | not identifiable |
+    /// not ready`.
     pub fn line(&self) -> String {
         let verdict = if !self.identifiable {
             "not identifiable"
         } else if self.drift {
             "RISEN"
+        } else if !self.ready {
+            "not ready (too few updates)"
         } else {
             "ok"
         };
@@ -228,6 +233,7 @@ pub fn health_brief(model: &CalibratedModel, samples: &[(i64, f64)]) -> Option<H
         updates: v.updates,
         drift: v.flags.contains(HealthFlags::DRIFT),
         identifiable: !v.flags.contains(HealthFlags::NOT_IDENTIFIABLE),
+        ready: !v.flags.contains(HealthFlags::NOT_READY),
         dropped,
     })
 }
