@@ -1,7 +1,7 @@
 //! `sledid-firmware`: what the firmware images and the host that checks them share, so that they
 //! cannot drift — the parts the images are built for ([`part`]), the configuration words
 //! ([`words`]), the processor-in-the-loop (PIL) link's frames ([`link`]), the interrupt's body and
-//! the result line ([`ticker`]), the bench image's recorded run ([`recording`]) and, on target, the
+//! the result line ([`ticker`]), the friction health beside the servo ([`health`]), the bench image's recorded run ([`recording`]) and, on target, the
 //! interrupt's clocks (`timing`). The QEMU image (`src/main.rs`, binary `sledid-fw`), the board
 //! image (`boards/stm32f411`) and the host (`host-tests/src/pil`, `host-tests/tests/firmware_qemu.rs`)
 //! depend on this crate; it is the firmware's, not part of the identification library (`sledid`).
@@ -37,6 +37,7 @@
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+pub mod health;
 pub mod link;
 pub mod part;
 pub mod recording;
@@ -45,6 +46,9 @@ pub mod ticker;
 pub mod timing;
 pub mod words;
 
+pub use health::{
+    HEALTH_Q, HealthConsumer, HealthLine, HealthProducer, HealthTap, HealthWatch, health_config,
+};
 pub use link::{
     Command, DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, UP_FRAME_BYTES, UpFrame,
     flags_word,

@@ -32,7 +32,9 @@
 //!
 //! # Output (defmt frames on semihosting stdout)
 //! The result line ([`sledid_firmware::Summary`]: samples, hand-overs, redesign outcomes,
-//! overruns, the safety layer's stop — reason and sample — and the identifier's final θ), which
+//! overruns, the safety layer's stop — reason and sample —, the identifier's final θ, and the
+//! friction health — ĉ, c_ref, updates, verdict flags, samples dropped on a full queue:
+//! [`sledid_firmware::health`]), which
 //! the host's reference must equal (it expects one overrun per stall it asked for), and the timing line:
 //! `clock_hz=… reload=… stalls=… max_ticks=… dwt_max_cycles=… late_dropped=…
 //! stack=used/size link_ok=…` (the part's name is on the first line).
@@ -63,10 +65,11 @@ mod target {
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
     use sledid::servo::{Calibrated, CalibrationRecord, Posted, ServoFlags, SledServo, StopReason};
 
+    use sledid_firmware::health::Queue;
     use sledid_firmware::timing::Timing;
     use sledid_firmware::{
-        DOWN_FRAME_BYTES, DownFrame, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX, TIMING_PREFIX,
-        Ticker, UpFrame,
+        DOWN_FRAME_BYTES, DownFrame, HealthConsumer, HealthLine, HealthProducer, HealthTap,
+        HealthWatch, Kind, LINK_DOWN, LINK_UP, Part, RESULT_PREFIX, TIMING_PREFIX, Ticker, UpFrame,
     };
 
     /// The part this image is built for.
@@ -134,6 +137,10 @@ mod target {
     struct Loop {
         /// The loop.
         ticker: Ticker<&'static SledServo>,
+        /// The friction health's feed (after each step).
+        health: HealthTap,
+        /// The interrupt's end of the health queue.
+        producer: HealthProducer<'static>,
         /// The host.
         link: Link,
         /// SysTick (the handler reads and clears its COUNTFLAG).
@@ -168,6 +175,7 @@ mod target {
             };
             let up = self.ticker.step(&frame);
             let sent = self.link.send(&up);
+            self.health.feed(&mut self.producer, &frame, &up);
             self.stepped = up.k.wrapping_add(1);
             if up.servo_flags().contains(ServoFlags::REDESIGN_POSTED) {
                 self.release_at = self.stepped.wrapping_add(u32::from(frame.command.delay()));
@@ -275,14 +283,39 @@ mod target {
         slot.as_ref()
     }
 
+    /// The friction health's queue (`.bss`), split into the interrupt's and the background's
+    /// ends, and the background's estimator (`.bss`), once: `None` on a second call or if the
+    /// health design does not build.
+    #[inline(never)]
+    fn install_health() -> Option<(
+        HealthTap,
+        HealthProducer<'static>,
+        HealthConsumer<'static>,
+        &'static mut HealthWatch,
+    )> {
+        let config = sledid_firmware::health_config().ok()?;
+        let queue = cortex_m::singleton!(HEALTH_QUEUE: Queue = Queue::new())?;
+        let (producer, consumer) = queue.split();
+        let slot = cortex_m::singleton!(HEALTH_WATCH: Option<HealthWatch> = None)?;
+        let watch = slot.insert(HealthWatch::new(config));
+        Some((HealthTap::new(config), producer, consumer, watch))
+    }
+
     /// Builds the loop into its static storage (`.bss`), once: `None` on a second call. Called
     /// after [`install_config`] has returned, so that their frames do not add up.
     #[inline(never)]
     #[allow(clippy::mut_from_ref)] // the storage is the singleton's, not `config`'s
-    fn install(config: &'static SledServo, link: Link, syst: SYST) -> Option<&'static mut Loop> {
+    fn install(
+        config: &'static SledServo,
+        health: (HealthTap, HealthProducer<'static>),
+        link: Link,
+        syst: SYST,
+    ) -> Option<&'static mut Loop> {
         let slot = cortex_m::singleton!(LOOP_STATE: Option<Loop> = None)?;
         Some(slot.insert(Loop {
             ticker: Ticker::new(config),
+            health: health.0,
+            producer: health.1,
             link,
             syst,
             timing: Timing::default(),
@@ -308,19 +341,45 @@ mod target {
         config.calibrate(&posted.job)
     }
 
+    /// The background's health work: the queued samples through the estimator (out of line, as
+    /// [`redesign`]).
+    #[inline(never)]
+    fn health_drain(health: &mut HealthWatch, consumer: &mut HealthConsumer<'static>) {
+        health.drain(consumer);
+    }
+
+    /// An accepted fit as the health's reference (out of line, as [`redesign`]).
+    #[inline(never)]
+    fn health_adopt(
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+        answer: &Calibrated<RedesignResult>,
+    ) {
+        health.adopt(consumer, answer);
+    }
+
     /// The background: takes power-on calibration's record and each redesign job the loop
     /// posts, computes the fit or the redesign, and hands the answer back into the loop's state
     /// (a redesign held back as long as the host's fault injection asks); the hand-over refuses
-    /// an answer whose due sample has passed (the step has flagged the miss). Returns when the
-    /// run has ended, with the number of answers refused.
+    /// an answer whose due sample has passed (the step has flagged the miss). An accepted fit
+    /// becomes the friction health's reference; after every job, and while a job is held back,
+    /// it drains the health queue ([`sledid_firmware::health`]). Returns when the run has ended,
+    /// with the number of answers refused.
     #[inline(never)]
-    fn background(config: &SledServo) -> u32 {
+    fn background(
+        config: &SledServo,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> u32 {
         let mut late = 0u32;
         loop {
             if let Some(Some(posted)) = with_loop(|l| l.ticker.take_calibration_job()) {
                 let answer = calibrate(config, &posted);
                 let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
                 late = late.wrapping_add(u32::from(accepted == Some(false)));
+                if accepted == Some(true) {
+                    health_adopt(health, consumer, &answer);
+                }
                 continue;
             }
             if let Some(Some((posted, release_at))) =
@@ -329,12 +388,14 @@ mod target {
                 let design = redesign(config, &posted);
                 // Held back until the loop has stepped `release_at` samples.
                 while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
+                    health_drain(health, consumer);
                     cortex_m::asm::wfi();
                 }
                 let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
                 late = late.wrapping_add(u32::from(accepted == Some(false)));
                 continue; // a job posted meanwhile is waiting
             }
+            health_drain(health, consumer);
             if with_loop(|l| l.ended.is_some()) == Some(true) {
                 return late;
             }
@@ -357,23 +418,25 @@ mod target {
         }
     }
 
-    /// The result and timing lines.
+    /// The result and timing lines (the health queue drained first: the interrupt no longer
+    /// feeds once the run has ended).
     #[inline(never)]
-    fn report(late: u32) -> bool {
-        let Some((s, t, stalls, link_ok)) = with_loop(|l| {
-            (
-                l.ticker.summary(),
-                l.timing,
-                l.stalls,
-                l.ended == Some(true),
-            )
+    fn report(late: u32, health: &mut HealthWatch, consumer: &mut HealthConsumer<'static>) -> bool {
+        health.drain(consumer);
+        let Some((mut s, t, stalls, link_ok)) = with_loop(|l| {
+            let mut s = l.ticker.summary();
+            s.health.dropped = l.health.dropped();
+            (s, l.timing, l.stalls, l.ended == Some(true))
         }) else {
             return false;
         };
+        s.health = HealthLine::new(&health.verdict(), s.health.dropped);
+        let h = s.health;
         let (stack_used, stack_size) = stack_high_water();
         defmt::println!(
             "{=str} samples={=u32} lost={=u32} updates={=u32} handover={} \
-             redesigns={} overruns={=u32} calibrations={=u32} stop={} theta={}",
+             redesigns={} overruns={=u32} calibrations={=u32} stop={} theta={} health={} \
+             health_updates={=u32} health_flags={=u8} health_dropped={=u32}",
             RESULT_PREFIX,
             s.samples,
             s.lost,
@@ -383,7 +446,11 @@ mod target {
             t.overruns,
             s.calibrations,
             StopField(s.stop),
-            s.theta_raw
+            s.theta_raw,
+            h.coulomb_raw,
+            h.updates,
+            h.flags,
+            h.dropped
         );
         defmt::println!(
             "{=str} clock_hz={=u32} reload={=u32} stalls={=u32} max_ticks={=u32} \
@@ -413,6 +480,9 @@ mod target {
             defmt::println!("sledid-fw: the configuration words do not decode");
             return false;
         };
+        let Some((tap, producer, mut consumer, health)) = install_health() else {
+            return false;
+        };
         defmt::println!(
             "sledid-fw: {=str}, SysTick reload {=u32}; hand-over latency {=u32} samples; \
              waiting for the host",
@@ -433,13 +503,13 @@ mod target {
         let mut syst = cp.SYST;
         sledid_firmware::timing::start_sample_clock(&mut syst, SYST_RELOAD);
         // The handler owns SYST from here on; until the loop is built it does nothing.
-        let Some(state) = install(config, link, syst) else {
+        let Some(state) = install(config, (tap, producer), link, syst) else {
             return false;
         };
         critical_section::with(|cs| LOOP.borrow_ref_mut(cs).replace(state));
 
-        let late = background(config);
-        report(late)
+        let late = background(config, health, &mut consumer);
+        report(late, health, &mut consumer)
     }
 
     /// Reset entry: paint the stack, run, exit through semihosting.
@@ -479,8 +549,9 @@ mod target {
         use sledid::control::scheduled::{RedesignJob, RedesignResult};
         use sledid::servo::{Calibrated, CalibrationRecord, Posted, SledServo};
 
+        use sledid::servo::health::HealthQueue;
         use sledid_firmware::recording::Cursor;
-        use sledid_firmware::{Command, DownFrame, Kind, Ticker};
+        use sledid_firmware::{Command, DownFrame, HealthTap, Kind, Ticker};
 
         /// A closed-loop run of the PIL's configuration on the twin (`fixtures/pil_trace.bin`:
         /// r and y of every sample, the recording codec with u = 0).
@@ -488,8 +559,8 @@ mod target {
 
         /// Redesign results kept by the init run, in the order of their jobs: the trace's 3 seeks
         /// post 4 (each result carries the placed gains with their seek plan, ≈ 0.4 KB: 32 of
-        /// them, twice, overflowed the QEMU map's 16 KiB of RAM).
-        const RESULTS: usize = 8;
+        /// them, twice, overflowed the QEMU map's 16 KiB of RAM; 8 did with the health queue).
+        const RESULTS: usize = 6;
 
         /// The measured run: the loop, its read position in the trace, the results, the next
         /// result's index, and power-on calibration's record with the fit's answer.
@@ -500,6 +571,9 @@ mod target {
             jobs: [Option<Posted<RedesignJob>>; RESULTS],
             next: usize,
             calibration: Option<(Posted<CalibrationRecord>, Calibrated<RedesignResult>)>,
+            /// The friction health's feed and a one-sample queue (the bench empties it itself).
+            tap: HealthTap,
+            queue: HealthQueue<2>,
         }
 
         /// The run `count_insns.py` measures.
@@ -522,7 +596,9 @@ mod target {
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_init() {
-            let Ok(config) = sledid_firmware::config() else {
+            let (Ok(config), Ok(health)) =
+                (sledid_firmware::config(), sledid_firmware::health_config())
+            else {
                 return;
             };
             let mut results = [None; RESULTS];
@@ -555,6 +631,8 @@ mod target {
                 jobs,
                 next: 0,
                 calibration,
+                tap: HealthTap::new(health),
+                queue: HealthQueue::new(),
             };
             critical_section::with(|cs| BENCH.borrow(cs).replace(Some(bench)));
         }
@@ -576,13 +654,18 @@ mod target {
         }
 
         /// One interrupt's work on the trace's next sample: the step behind the embedded-hal
-        /// boundary, the answer's bytes, and a posted job's result handed over (adopted at
-        /// k + L). Returns the answer's u.
+        /// boundary, the answer's bytes, the friction health's feed, and a posted job's result
+        /// handed over (adopted at k + L). The sample fed is popped again at once (the
+        /// background's work on target; a few cycles every second call), so that every push
+        /// finds room, as under PIL. Returns the answer's u.
         #[allow(unsafe_code)] // `no_mangle` exports the symbol for count_insns.py; the name is unique.
         #[unsafe(no_mangle)]
         pub(super) extern "C" fn sledid_fw_bench_tick(_i: u32) -> u32 {
             with_bench(|b, frame| {
                 let up = b.ticker.step(frame);
+                let (mut producer, mut consumer) = b.queue.split();
+                b.tap.feed(&mut producer, frame, &up);
+                core::hint::black_box(consumer.dequeue());
                 if let (Some(posted), Some((_, answer))) =
                     (b.ticker.take_calibration_job(), b.calibration)
                 {

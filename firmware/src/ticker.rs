@@ -16,6 +16,7 @@ use sledid::servo::{
     Ticket,
 };
 
+use crate::health::HealthLine;
 use crate::link::{DownFrame, Kind, UpFrame, flags_word};
 
 /// Full scale of the PIL drive's PWM channel: a 20 kHz PWM on a 72 MHz timer clock, as on the
@@ -249,6 +250,9 @@ pub struct Summary {
     pub stop: Option<StopReason>,
     /// Final velocity θ, raw I12F20.
     pub theta_raw: [i32; THETA_N],
+    /// The friction health at the end ([`crate::health`]; filled in by the caller, which owns
+    /// the estimator: [`Ticker::summary`] leaves it at its default).
+    pub health: HealthLine,
 }
 
 /// `[a, b, c]`: a slice as defmt prints it.
@@ -265,8 +269,9 @@ fn write_list<T: fmt::Display>(f: &mut fmt::Formatter<'_>, items: &[T]) -> fmt::
 
 impl fmt::Display for Summary {
     /// `samples=… lost=… updates=… handover=[posted, adopted, missed] redesigns=[applied,
-    /// rejected, skipped] overruns=… calibrations=… stop=none|code theta=[…]` (the stop's
-    /// [`StopReason::code`]; θ raw I12F20), exactly the firmware's defmt line.
+    /// rejected, skipped] overruns=… calibrations=… stop=none|code theta=[…] health=[ĉ, c_ref]
+    /// health_updates=… health_flags=… health_dropped=…` (the stop's [`StopReason::code`]; θ,
+    /// ĉ and c_ref raw I12F20; [`HealthLine`]), exactly the firmware's defmt line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -286,6 +291,14 @@ impl fmt::Display for Summary {
             None => f.write_str("none")?,
         }
         f.write_str(" theta=")?;
-        write_list(f, &self.theta_raw)
+        write_list(f, &self.theta_raw)?;
+        let h = &self.health;
+        f.write_str(" health=")?;
+        write_list(f, &h.coulomb_raw)?;
+        write!(
+            f,
+            " health_updates={} health_flags={} health_dropped={}",
+            h.updates, h.flags, h.dropped
+        )
     }
 }

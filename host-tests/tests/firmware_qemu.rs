@@ -14,7 +14,11 @@
 //!   frames, the trace's codec.
 //! - `lockstep_stops_at_the_first_difference`: the PIL's comparison names the first sample a
 //!   target answers differently (a fake target that flips one bit).
-//! - `host_closed_loop_settles_every_seek`: the host's run of the words on the twin.
+//! - `host_closed_loop_settles_every_seek`: the host's run of the words on the twin, with the
+//!   friction health's estimate (reference set, ĉ near it, not yet a verdict, nothing dropped).
+//! - `the_health_tap_feeds_only_what_the_servo_drives`, `the_result_line_check_covers_the_health`:
+//!   the friction health beside the servo (`sledid_firmware::health`): what the interrupt feeds,
+//!   and that a target whose health fields differ from the host's fails the PIL check.
 //! - `injected_reversals_stop_the_host_loop`,
 //!   `outcome_check_refuses_what_the_faults_do_not_explain`,
 //!   `injected_plant_steps_change_the_twin_from_their_sample`: `sledid pil --inject` faults on the
@@ -25,7 +29,8 @@
 //!   bit-identical to the host (lockstep), the whole drive sequence equal to the host
 //!   closed-loop run, the result line equal to the host's, every seek settled, the injected
 //!   overruns counted, the late hand-overs flagged (one while seeking, one while settling) and
-//!   refused, the slow ones adopted at k + L.
+//!   refused, the slow ones adopted at k + L; the friction health's estimate (ĉ, c_ref, updates,
+//!   flags) on the result line bit-identical to the host's, nothing dropped.
 //! - `pil_safe_stop_cortex_m4f`, `pil_safe_stop_cortex_m0`,
 //!   `pil_injected_reversed_sensor_stops_cortex_m4f`: a reversed sensor under PIL (while the sled
 //!   moves; injected as `--inject flip:from=1000` while it holds): the firmware stops safely and
@@ -39,10 +44,13 @@ use std::sync::OnceLock;
 
 use sledid::control::Region;
 use sledid::error::ConfigError;
+use sledid::servo::health::HealthFlags;
 use sledid::servo::{Refusal, SERVO_WORDS_MAX, ServoFlags, SledServo, StopReason};
 use sledid::words::{WordWriter, Words};
 use sledid::{PositionI48F16, Sample, SignalI16F16};
-use sledid_firmware::{self, Command, DOWN_FRAME_BYTES, DownFrame, Kind, UP_FRAME_BYTES, UpFrame};
+use sledid_firmware::{
+    self, Command, DOWN_FRAME_BYTES, DownFrame, HealthLine, Kind, UP_FRAME_BYTES, UpFrame,
+};
 use sledid_host::pil::{self, Core, Faults, PilRun, Record};
 use sledid_host::twin::TwinParams;
 
@@ -515,6 +523,126 @@ fn host_closed_loop_settles_every_seek() {
         posted.iter().map(|k| k + latency).collect::<Vec<_>>(),
         "every redesign adopted at k + L"
     );
+    // The friction health beside the servo: its reference is calibration's, it has learnt from
+    // the seeks (measured 2026-11-27: 68 updates over 20 seeks, ĉ 0.00661 against c_ref
+    // 0.00730 of full scale), too few for a verdict (`min_updates` 200: NOT_READY), never
+    // flagged on the healthy sled; the host's queue never fills.
+    let h = run.summary.health;
+    println!("friction health: {h:?}");
+    assert!(h.coulomb_raw[1] > 0, "c_ref set from calibration: {h:?}");
+    assert!(h.updates >= 50, "the estimator hardly ran: {h:?}");
+    assert_eq!(h.flags, HealthFlags::NOT_READY.bits(), "{h:?}");
+    let off_fs = f64::from(h.coulomb_raw[0] - h.coulomb_raw[1]) / f64::from(1 << 20);
+    assert!(off_fs.abs() <= 0.002, "ĉ off c_ref by {off_fs:.5}: {h:?}");
+    assert_eq!(h.dropped, 0);
+}
+
+/// What the interrupt feeds the friction health (`HealthTap::feed`): nothing on a sample of
+/// calibration, of a safe stop or without a reading, and after such a sample a new pair whose
+/// first sample breaks the lag chain; a sample every second period otherwise. Trips on a tap
+/// that feeds calibration's drive, pairs readings across a gap or pushes every period.
+#[test]
+fn the_health_tap_feeds_only_what_the_servo_drives() {
+    use sledid::servo::health::FeedFlags;
+    use sledid_firmware::HealthTap;
+    let config = sledid_firmware::health_config().expect("the default health design");
+    let mut queue = sledid_firmware::health::Queue::new();
+    let (mut prod, mut cons) = queue.split();
+    let mut tap = HealthTap::new(config);
+    let frame = |kind, y: i64| DownFrame {
+        command: Command::new(kind),
+        r: PositionI48F16::from_counts(0),
+        y: PositionI48F16::from_counts(y),
+    };
+    let up = |servo: ServoFlags| UpFrame {
+        u_raw: 1 << 14,
+        flags: u32::from(servo.bits()) << 16,
+        ..UpFrame::default()
+    };
+    let driving = up(ServoFlags::NONE);
+    for (servo, kind) in [
+        (ServoFlags::CALIBRATING, Kind::Sample),
+        (ServoFlags::SAFE_STOP, Kind::Sample),
+        (ServoFlags::NONE, Kind::Lost),
+    ] {
+        for y in 0..4 {
+            tap.feed(&mut prod, &frame(Kind::Sample, y), &driving);
+        }
+        assert!(
+            cons.dequeue().is_some(),
+            "{servo:?} {kind:?}: fed while driving"
+        );
+        while cons.dequeue().is_some() {}
+        assert_eq!(
+            tap.feed(&mut prod, &frame(kind, 10), &up(servo)),
+            FeedFlags::NONE,
+            "{servo:?} {kind:?}"
+        );
+        assert!(cons.dequeue().is_none(), "{servo:?} {kind:?}: fed");
+        let pushed: Vec<bool> = [20, 23, 27]
+            .iter()
+            .map(|&y| {
+                tap.feed(&mut prod, &frame(Kind::Sample, y), &driving)
+                    .contains(FeedFlags::PUSHED)
+            })
+            .collect();
+        assert_eq!(pushed, [false, false, true], "{servo:?} {kind:?}");
+        let s = cons.dequeue().expect("a sample");
+        assert_eq!(
+            s.v.to_f64(),
+            7.0,
+            "{servo:?} {kind:?}: travel across the gap"
+        );
+        assert!(s.after_drop, "{servo:?} {kind:?}: lag chain kept");
+        assert_eq!(s.u, [SignalI16F16::from_raw(1 << 14); 2]);
+    }
+    assert_eq!(tap.dropped(), 0);
+}
+
+/// The PIL check compares the friction health on the result line: a target whose line differs
+/// from the host's in ĉ, c_ref, updates, flags or drops fails `PilRun::check_lockstep`, the
+/// honest line passes. Trips on a result line or a check that leaves a health field out.
+#[test]
+fn the_result_line_check_covers_the_health() {
+    let params = pil::twin_params(2).expect("the default sled's schedule");
+    let run = pil::run_loop(&params, pil::SEED, &Faults::default(), None).expect("host run");
+    let honest = run.summary;
+    let mut pil = PilRun {
+        core: Core::M4f,
+        timing: Some(pil::Timing {
+            stalls: run.faults.stalls.len() as u32,
+            link_ok: true,
+            ..pil::Timing::default()
+        }),
+        run,
+        status: std::process::ExitStatus::default(),
+        log: String::new(),
+        result_line: None,
+        wall: std::time::Duration::ZERO,
+    };
+    let line = |s: &sledid_firmware::Summary| format!("{} {s}", sledid_firmware::RESULT_PREFIX);
+    pil.result_line = Some(line(&honest));
+    assert_eq!(pil.check_lockstep(), Ok(()));
+    assert!(
+        pil.result_line
+            .as_deref()
+            .unwrap_or_default()
+            .contains(" health=["),
+        "{:?}",
+        pil.result_line
+    );
+    for (field, change) in [
+        ("ĉ", (|h| h.coulomb_raw[0] ^= 1) as fn(&mut HealthLine)),
+        ("c_ref", |h| h.coulomb_raw[1] ^= 1),
+        ("updates", |h| h.updates ^= 1),
+        ("flags", |h| h.flags ^= 1),
+        ("dropped", |h| h.dropped ^= 1),
+    ] {
+        let mut target = honest;
+        change(&mut target.health);
+        pil.result_line = Some(line(&target));
+        assert!(pil.check_lockstep().is_err(), "{field} not compared");
+    }
 }
 
 /// The samples whose answer carries `flag`.
@@ -580,6 +708,17 @@ fn pil_matches_host(core: Core) {
         );
     }
     assert_eq!(pil.run.summary, host.summary);
+
+    // The friction health beside the servo: the target's estimate on its result line is the
+    // host's, field by field (also in `check`'s whole-line comparison), and nothing dropped.
+    let h = host.summary.health;
+    let line = pil.result_line.as_deref().unwrap_or_default();
+    let fields = format!(
+        "health=[{}, {}] health_updates={} health_flags={} health_dropped=0",
+        h.coulomb_raw[0], h.coulomb_raw[1], h.updates, h.flags
+    );
+    assert!(line.ends_with(&fields), "{line}\n  host: {fields}");
+    assert!(h.updates > 0 && h.coulomb_raw[1] > 0, "{h:?}");
 
     // The plan's faults happened, and the target handled them.
     let timing = pil.timing.expect("timing line");

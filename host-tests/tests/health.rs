@@ -393,3 +393,44 @@ fn the_seek_summary_says_when_the_verdict_is_not_ready() {
     assert!(long.ready && !long.drift, "{long:?}");
     assert!(long.line().ends_with(": ok"), "{}", long.line());
 }
+
+/// `HealthFeed::restart` (a sample the servo did not drive: calibration, a safe stop, a lost
+/// reading): the pair in progress is forgotten and the count kept, so no travel spans the gap —
+/// after a restart two more readings push nothing, the third pushes the travel over the last two
+/// only, marked `after_drop` so the background refills its lags. Trips on a restart that keeps
+/// the pair's start, forgets the drops or leaves the lag chain whole.
+#[test]
+fn a_restart_starts_a_new_pair_and_breaks_the_lag_chain() {
+    use sledid::servo::health::{FeedFlags, HealthFeed, HealthQueue};
+    let config = HealthDesign::default().build().unwrap();
+    let mut queue: HealthQueue<2> = HealthQueue::new();
+    let (mut prod, mut cons) = queue.split();
+    let mut feed = HealthFeed::new();
+    let push = |feed: &mut HealthFeed, prod: &mut _, y: i64| {
+        config.feed(
+            feed,
+            prod,
+            sledid::PositionI48F16::from_counts(y),
+            sledid::SignalI16F16::from_int(0),
+        )
+    };
+    // Three readings: one sample pushed; two more: the second is dropped (capacity 1).
+    for y in [0, 5, 10, 15, 20] {
+        push(&mut feed, &mut prod, y);
+    }
+    assert_eq!(feed.dropped(), 1);
+    let first = cons.dequeue().expect("one sample");
+    assert_eq!((first.v.to_f64(), first.after_drop), (10.0, false));
+    feed.restart();
+    assert_eq!(feed.dropped(), 1, "the count survives a restart");
+    assert_eq!(push(&mut feed, &mut prod, 1_000), FeedFlags::NONE);
+    assert_eq!(push(&mut feed, &mut prod, 1_004), FeedFlags::NONE);
+    assert!(push(&mut feed, &mut prod, 1_009).contains(FeedFlags::PUSHED));
+    let next = cons.dequeue().expect("one sample after the restart");
+    assert_eq!(
+        next.v.to_f64(),
+        9.0,
+        "the travel from the restart, not across it"
+    );
+    assert!(next.after_drop, "the lag chain breaks");
+}

@@ -95,7 +95,8 @@ pub struct HealthSample {
     pub v: SignalI16F16,
     /// u(2m−1), u(2m−2): the pair's drives, fraction of full scale.
     pub u: [SignalI16F16; 2],
-    /// A sample was dropped just before this one (the lag chain is broken).
+    /// A sample was dropped, or the feed restarted ([`HealthFeed::restart`]), just before this
+    /// one (the lag chain is broken).
     pub after_drop: bool,
 }
 
@@ -240,6 +241,16 @@ impl HealthFeed {
     pub fn dropped(&self) -> u32 {
         self.dropped
     }
+
+    /// Forgets the pair in progress and keeps the count: the next reading starts a new pair,
+    /// and the next sample pushed breaks the lag chain as after a drop. For a sample that is not
+    /// fed (no reading, or a drive that is not the servo's: calibration's experiment, a safe
+    /// stop), so that no pair spans it.
+    pub fn restart(&mut self) {
+        self.y_start = None;
+        self.second = false;
+        self.after_drop = true;
+    }
 }
 
 /// What [`HealthConfig::feed`] did.
@@ -351,6 +362,11 @@ impl HealthFlags {
     /// Whether every flag of `other` is set.
     pub const fn contains(self, other: Self) -> bool {
         self.0 & other.0 == other.0
+    }
+
+    /// The raw bits (`DRIFT` 1, `NOT_READY` 2, `NO_GAIN` 4, `NOT_IDENTIFIABLE` 8).
+    pub const fn bits(self) -> u8 {
+        self.0
     }
 }
 

@@ -63,8 +63,10 @@ pub use cli::{PilArgs, pil_cmd};
 pub use faults::{Faults, PilFault, StopRule};
 pub use link::{Core, QemuLink};
 pub use outcome::{MOVED_QUANTA, SafeStop};
+use sledid_firmware::health::Queue;
 use sledid_firmware::{
-    Command, DownFrame, Kind, RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
+    Command, DownFrame, HealthConsumer, HealthLine, HealthProducer, HealthTap, HealthWatch, Kind,
+    RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
 };
 
 /// L, the firmware's hand-over latency: a redesign requested by sample k is adopted at k + 12
@@ -249,6 +251,9 @@ impl Target for ReplayTarget {
 /// The controller the twin sees: the reference in lockstep with the target (if any).
 struct Lockstep<'a, 't> {
     reference: Ticker<SledServo>,
+    /// The friction health beside it (`sledid_firmware::health`): fed after each step and
+    /// drained at once (the target drains when its background gets to it).
+    health: HostHealth<'a>,
     latency: u32,
     target: Option<&'t mut dyn Target>,
     faults: &'a Faults,
@@ -260,6 +265,22 @@ struct Lockstep<'a, 't> {
     u_full_scale_v: f64,
     /// The reading the reversed sensor mirrors about, once reversed.
     pivot: Option<f64>,
+}
+
+/// The host's friction health: both ends of the queue and both sides of the estimator.
+struct HostHealth<'q> {
+    tap: HealthTap,
+    producer: HealthProducer<'q>,
+    watch: HealthWatch,
+    consumer: HealthConsumer<'q>,
+}
+
+impl HostHealth<'_> {
+    /// The result line's fields (after a last drain).
+    fn line(&mut self) -> HealthLine {
+        self.watch.drain(&mut self.consumer);
+        HealthLine::new(&self.watch.verdict(), self.tap.dropped())
+    }
 }
 
 impl Lockstep<'_, '_> {
@@ -292,10 +313,16 @@ impl SledController for Lockstep<'_, '_> {
             y: position_from_quanta(y_counts),
         };
         let expected = self.reference.step(&frame);
+        let h = &mut self.health;
+        h.tap.feed(&mut h.producer, &frame, &expected);
+        h.watch.drain(&mut h.consumer);
         if let Some(posted) = self.reference.take_calibration_job() {
-            // The fit, delivered at once (the target's background has its latency to answer).
+            // The fit, delivered at once (the target's background has its latency to answer),
+            // and the health's reference from it, as on the target.
             let answer = self.reference.config().calibrate(&posted.job);
-            self.reference.deliver_calibration(posted.ticket, answer);
+            if self.reference.deliver_calibration(posted.ticket, answer) {
+                h.watch.adopt(&mut h.consumer, &answer);
+            }
         }
         if let Some(posted) = self.reference.take_job() {
             let n = self.log.jobs;
@@ -394,11 +421,20 @@ pub fn run_loop(
     target: Option<&mut dyn Target>,
 ) -> Result<LoopRun, String> {
     let config = firmware_config()?;
+    let health = sledid_firmware::health_config().map_err(|e| e.to_string())?;
+    let mut queue = Queue::new();
+    let (producer, consumer) = queue.split();
     let mut twin = Twin::new(params.clone(), seed).map_err(|e| e.to_string())?;
     twin.set_controller_label("sledid-fw");
     let mut lockstep = Lockstep {
         latency: config.handover_latency(),
         reference: Ticker::new(config),
+        health: HostHealth {
+            tap: HealthTap::new(health),
+            producer,
+            watch: HealthWatch::new(health),
+            consumer,
+        },
         target,
         faults,
         stall_from: 0,
@@ -428,6 +464,7 @@ pub fn run_loop(
     }
     let mut summary = lockstep.reference.summary();
     summary.overruns = lockstep.log.stalls.len() as u32;
+    summary.health = lockstep.health.line();
     Ok(LoopRun {
         twin,
         summary,
