@@ -254,7 +254,7 @@ impl HealthFeed {
 }
 
 /// What [`HealthConfig::feed`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FeedFlags(u8);
 
@@ -268,17 +268,15 @@ impl FeedFlags {
     /// The travel V saturated.
     pub const SATURATED: Self = Self(4);
 
-    /// Whether every flag of `other` is set.
-    pub const fn contains(self, other: Self) -> bool {
-        self.0 & other.0 == other.0
-    }
+    /// All flags with their names, in bit order.
+    pub const NAMES: [(Self, &'static str); 3] = [
+        (Self::PUSHED, "pushed"),
+        (Self::DROPPED, "dropped"),
+        (Self::SATURATED, "saturated"),
+    ];
 }
 
-impl core::ops::BitOrAssign for FeedFlags {
-    fn bitor_assign(&mut self, rhs: Self) {
-        self.0 |= rhs.0;
-    }
-}
+crate::flag_set_impl!(FeedFlags, u8);
 
 /// The background side's state: θ and P, the lags, the counters, the reference.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -286,8 +284,8 @@ pub struct HealthState {
     rls: RlsState<HEALTH_N>,
     /// V(m−1), u(2m−3), u(2m−4).
     lags: [SignalI16F16; 3],
-    /// Samples in the lags since the start or the last drop (1: valid).
-    fill: u8,
+    /// The lags hold the previous sample (not after the start or a drop).
+    lags_valid: bool,
     updates: u32,
     samples: u32,
     reference_fs: ParamI12F20,
@@ -343,7 +341,7 @@ pub fn reference_theta(a: f32, gain_k: f32, c: f32) -> Option<[f32; 7]> {
 }
 
 /// What the background's estimator and its verdict report.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HealthFlags(u8);
 
@@ -359,22 +357,17 @@ impl HealthFlags {
     /// The reference's pole is below `min_pole`: friction is not identifiable on seeks.
     pub const NOT_IDENTIFIABLE: Self = Self(8);
 
-    /// Whether every flag of `other` is set.
-    pub const fn contains(self, other: Self) -> bool {
-        self.0 & other.0 == other.0
-    }
-
-    /// The raw bits (`DRIFT` 1, `NOT_READY` 2, `NO_GAIN` 4, `NOT_IDENTIFIABLE` 8).
-    pub const fn bits(self) -> u8 {
-        self.0
-    }
+    /// All flags with their names, in bit order (`bits()`: `DRIFT` 1, `NOT_READY` 2,
+    /// `NO_GAIN` 4, `NOT_IDENTIFIABLE` 8).
+    pub const NAMES: [(Self, &'static str); 4] = [
+        (Self::DRIFT, "drift"),
+        (Self::NOT_READY, "not_ready"),
+        (Self::NO_GAIN, "no_gain"),
+        (Self::NOT_IDENTIFIABLE, "not_identifiable"),
+    ];
 }
 
-impl core::ops::BitOrAssign for HealthFlags {
-    fn bitor_assign(&mut self, rhs: Self) {
-        self.0 |= rhs.0;
-    }
-}
+crate::flag_set_impl!(HealthFlags, u8);
 
 /// The verdict: the identified level and the flags.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -396,7 +389,7 @@ impl HealthConfig {
         HealthState {
             rls: RlsState::new(&self.rls, [ParamI12F20::ZERO; HEALTH_N]),
             lags: [SignalI16F16::ZERO; 3],
-            fill: 0,
+            lags_valid: false,
             updates: 0,
             samples: 0,
             reference_fs: ParamI12F20::ZERO,
@@ -422,31 +415,26 @@ impl HealthConfig {
         y: PositionI48F16,
         u: SignalI16F16,
     ) -> FeedFlags {
-        let Some(start) = feed.y_start else {
-            feed.y_start = Some(y);
-            feed.u_first = u;
-            feed.second = true;
-            return FeedFlags::NONE;
-        };
-        if feed.second {
+        if feed.y_start.is_some() && feed.second {
             feed.u_second = u;
             feed.second = false;
             return FeedFlags::NONE;
         }
+        // The pair's travel and drives (none on the first reading); y starts the next pair.
         let mut sat = false;
-        let sample = HealthSample {
+        let sample = feed.y_start.map(|start| HealthSample {
             v: y.offset_from(start, &mut sat),
             u: [feed.u_second, feed.u_first],
             after_drop: feed.after_drop,
-        };
+        });
         feed.y_start = Some(y);
         feed.u_first = u;
         feed.second = true;
-        let mut flags = if sat {
-            FeedFlags::SATURATED
-        } else {
-            FeedFlags::NONE
+        let Some(sample) = sample else {
+            return FeedFlags::NONE;
         };
+        let mut flags = FeedFlags::NONE;
+        flags.set_if(FeedFlags::SATURATED, sat);
         if producer.enqueue(sample).is_ok() {
             feed.after_drop = false;
             flags |= FeedFlags::PUSHED;
@@ -489,12 +477,12 @@ impl HealthConfig {
     pub fn step(&self, st: &mut HealthState, sample: HealthSample) -> Status {
         st.samples = st.samples.saturating_add(1);
         if sample.after_drop {
-            st.fill = 0;
+            st.lags_valid = false;
         }
         let mut status = Status::WARMUP;
         let [v1, u3, u4] = st.lags;
         let [u1, u2] = sample.u;
-        if st.fill >= 1 {
+        if st.lags_valid {
             let phi = [v1, u1, u2, u3, u4, self.neuron(v1)];
             let moving = |v: SignalI16F16| v.raw().saturating_abs() >= self.gate_i16f16;
             let one_sign = (sample.v.raw() > 0) == (v1.raw() > 0);
@@ -514,7 +502,7 @@ impl HealthConfig {
             }
         }
         st.lags = [sample.v, u1, u2];
-        st.fill = 1;
+        st.lags_valid = true;
         status
     }
 
