@@ -328,13 +328,14 @@ fn calibration_refuses_what_is_not_a_sled() {
 
 /// The calibrated seek mode on the nominal sled whose mass (`mass`) or friction (`friction`)
 /// changes by the given factor at sample `at`: the stop, the calibrations adopted, the seeks
-/// after the change and how many of them are unsettled.
+/// after the change, how many of them are unsettled, and the seeks' learnt gain ratio at the end
+/// (`sledid::control::scheduled::learn`).
 fn plant_change(
     seed: u64,
     mass: f64,
     friction: f64,
     at: usize,
-) -> (Option<StopReason>, u32, usize, usize) {
+) -> (Option<StopReason>, u32, usize, usize, f64) {
     use sledid::servo::{Identification, ServoOptions};
     use sledid_host::control::run::twin_safety;
     use sledid_host::control::seek::SeekOptions;
@@ -382,6 +383,7 @@ fn plant_change(
         servo.state.calibrations(),
         after.len(),
         after.iter().filter(|r| !r.settled).count(),
+        f64::from(servo.state.controller().learner().ratio()) / 65_536.0,
     )
 }
 
@@ -390,14 +392,17 @@ fn plant_change(
 ///
 /// | change | calibrations | unsettled seeks after it, seeds 1–4 | without the watch (before it existed) |
 /// |---|---|---|---|
-/// | mass × 0.4 | 2 on every seed | 0 / 0 / 0 / 0 | 9 / 2 / 2 / 3 |
+/// | mass × 0.4 | 2 on every seed (since the seeks' gain learner: 1, the learnt gain ratio 1.42 / 1.45 / 1.21 / … ) | 0 / 0 / 0 / 0 | 9 / 2 / 2 / 3 |
 /// | mass × 0.25, mass × 0.4 with friction × 0.3 | 2 on every seed | 0 on every seed | – |
 /// | mass × 3, friction × 3 | 1 (the slower sled still lands) | 0 on every seed | 0 |
 /// | mass × 8 | 1 | 0 / 0 / 1 / 1 | – |
 ///
-/// No stop in any case. Asserted: no stop; a faster sled calibrated again on every seed with ≤ 1
-/// unsettled seek over the four seeds; the slower ones ≤ 2 over the four seeds. Trips on a watch
-/// that never fires (the faster sled's 16 unsettled seeks), one that fires on a healthy settle
+/// No stop in any case. Asserted: no stop; a faster sled calibrated again on every seed — or,
+/// since the seeks learn their gain (`sledid::control::scheduled::learn`, 2026-11-27), its
+/// change taken up by the learner instead (ratio ≥ 1.1: beyond calibration's error and the
+/// learner's 3 % redesign step) — with ≤ 1 unsettled seek over the four seeds; the slower ones
+/// ≤ 2 over the four seeds. Trips on a watch that never fires while the learner does not
+/// either (the faster sled's 16 unsettled seeks), one that fires on a healthy settle
 /// (extra calibrations on the slower sleds are allowed, stops are not), or a re-calibration that
 /// is not adopted or leaves the command unfollowed (its seeks unsettled).
 #[test]
@@ -412,9 +417,10 @@ fn a_plant_change_is_calibrated_again_in_the_next_dwell() {
     ] {
         let mut unsettled = 0;
         for seed in 1..=4 {
-            let (stop, calibrations, after, lost) = plant_change(seed, mass, friction, 15_000);
+            let (stop, calibrations, after, lost, learnt) =
+                plant_change(seed, mass, friction, 15_000);
             println!(
-                "seed {seed} mass ×{mass} friction ×{friction}: stop {stop:?}, {calibrations} calibrations, {lost} of {after} seeks unsettled"
+                "seed {seed} mass ×{mass} friction ×{friction}: stop {stop:?}, {calibrations} calibrations, {lost} of {after} seeks unsettled, learnt gain ratio {learnt:.2}"
             );
             assert_eq!(
                 stop, None,
@@ -422,7 +428,10 @@ fn a_plant_change_is_calibrated_again_in_the_next_dwell() {
             );
             assert!(after >= 30);
             if faster {
-                assert_eq!(calibrations, 2, "seed {seed}, mass ×{mass}");
+                assert!(
+                    calibrations == 2 || learnt >= 1.1,
+                    "seed {seed}, mass ×{mass}: {calibrations} calibrations, learnt {learnt}"
+                );
             }
             unsettled += lost;
         }
@@ -533,7 +542,9 @@ fn injected_faults_show_in_the_summary() {
             "{spec}: {stop:?}"
         );
     }
-    let s = run("mass:at=5000,factor=0.4");
+    // A mass × 0.4 (the gain in quanta × 2.2) is absorbed by the seeks' gain learner since
+    // 2026-11-27 (no re-calibration, no seek lost); × 0.25 still calls for one.
+    let s = run("mass:at=5000,factor=0.25");
     assert!(s.safe_stop.is_none());
     assert!(s.calibrations >= 2, "{s:?}");
     assert_eq!(s.unsettled, 0);

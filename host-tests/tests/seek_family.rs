@@ -116,11 +116,14 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
 }
 
 /// The product setting: every servo designed from the nominal prior, calibrated at power-on
-/// (`sledid::servo::calibration`), holding the calibrated model and seeking on it at the
-/// calibrated α 0.7, p 0.15 (`control-family --passes seek --calibrate`). Measured seeds 1 / 7
-/// (2): access / bound median 1.09 / 1.08 (1.07), p95 2.00 / 1.75 (1.75), ≥ 200 tracks 1.07 /
-/// 1.06 (1.06), clean 100.0 / 100.0 % (99.5 %), unsettled 0 / 0 (2), pulses 0 / 0 (0), safe
-/// stops 0 / 0 (0) — against the on-line servo without calibration's 1.25 / 1.20 median, 3.50 /
+/// (`sledid::servo::calibration`), seeking on the calibrated model at the calibrated α 0.7,
+/// p 0.15 until its seeks have corrected its gain (`control::scheduled::learn`), then at p 0
+/// (`control-family --passes seek --calibrate`). Measured 2026-11-27 with the learner, seeds
+/// 1 / 7 (2): access / bound median 1.04 / 1.04 (1.04), p95 1.60 / 1.57 (1.60), ≥ 200 tracks
+/// 1.05 / 1.04 (1.05), clean 99.5 / 100.0 % (99.5 %), unsettled 1 / 0 (1), pulses 0 / 0 (0),
+/// safe stops 0 / 0 (0); seeds 3–6: clean 100 %, p95 ≤ 1.67. Before the learner (the
+/// calibrated model held at p 0.15): median 1.09 / 1.08 (1.07), p95 2.00 / 1.75 (1.75), ≥ 200
+/// tracks 1.07 / 1.06 (1.06), clean 100.0 / 100.0 % (99.5 %), unsettled 0 / 0 (2) — against the on-line servo without calibration's 1.25 / 1.20 median, 3.50 /
 /// 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops (`seeks_on_the_plant_family`). Over seeds 1–7
 /// the plants with an unsettled seek or a pulse are 0 / 1 / 2 / 0 / 1 / 3 / 0 (of 200; at most
 /// 3 unsettled seeks and 1 pulse per family): clean ≥ 99 % holds with two plants to spare on
@@ -164,10 +167,12 @@ fn calibrated_seeks_on_the_plant_family() {
         // Seek errors (`ServoFlags::SEEK_ERROR`): every unsettled seek reported; settled seeks
         // reported all the same — settled after the seek error's budget (late, not lost), or off
         // track after settling (the reading left ±1 quantum and came back before the window's
-        // last 10 ms; `servo::calibration::watch`) — measured 39 / 35 of 10,000 (seed 2: 30;
-        // 3 / 12 / 15 before the off-track rule), asserted at the seeds' largest. Trips on a
-        // watch that reports seeks while they move or hold (thousands).
+        // last 10 ms; `servo::calibration::watch`) — measured 58 / 64 of 10,000 (seeds 2–6:
+        // 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0 (39 / 35 / 30 at p 0.15
+        // before it, 44 / 35 / 29 with the learner at p 0.15 — whose fast corner sled then kept
+        // a p95 of 2.5 —, 3 / 12 / 15 before the off-track rule), asserted at the seeds'
+        // largest. Trips on a watch that reports seeks while they move or hold (thousands).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
-        assert!(s.settled_reported <= 39, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 64, "seed {seed}: {s:?}");
     }
 }

@@ -426,7 +426,8 @@ impl ScheduledBench {
         let job = sledid::control::scheduled::RedesignJob::Place {
             theta,
             len: 3,
-            calibrated: false,
+            source: sledid::control::scheduled::ModelSource::Identified,
+            gain_ratio: sledid::control::scheduled::learn::RATIO_ONE,
         };
         let design = Controller::redesign(&self.config, &job);
         Controller::adopt(&self.config, &mut self.state, &design);

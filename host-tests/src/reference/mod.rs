@@ -27,4 +27,5 @@ pub mod nonlinear_batch;
 pub mod rls;
 pub mod scheduled;
 pub mod seek;
+pub mod seek_gain;
 pub mod units;

@@ -52,6 +52,7 @@
 
 #![deny(clippy::float_arithmetic)]
 
+pub mod learn;
 pub mod observer;
 pub mod regions;
 pub mod rest;
@@ -69,6 +70,7 @@ use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::num::float_bits::from_fixed;
 use crate::num::gain::{LIMIT_I32F32_MAX, clamp_sym_i32, clamp_sym_i64, i32f32_from_f64};
 use crate::words::{WordReader, WordWriter, Words};
+use learn::{RATIO_ONE, SeekGainLearner};
 use observer::VelocityObserver;
 use regions::{Region, RegionDesign, RegionSelector};
 use rest::{NearTarget, Verdict};
@@ -346,6 +348,13 @@ pub struct ScheduledState {
     compensation: Option<InverseInputMap>,
     /// The model was refused (or none accepted yet): the baseline runs.
     fallback: bool,
+    /// The gains in use were placed from power-on calibration's θ (and what the seeks taught
+    /// since): the seeks' gain is learnt ([`learn`]).
+    calibrated_plan: bool,
+    /// The seeks' gain learner.
+    learner: SeekGainLearner,
+    /// The learner asks for a redesign at its ratio.
+    gain_redesign_pending: bool,
 }
 
 impl ScheduledState {
@@ -379,7 +388,15 @@ impl ScheduledState {
             gains,
             compensation,
             fallback,
+            calibrated_plan: false,
+            learner: SeekGainLearner::new(),
+            gain_redesign_pending: false,
         }
+    }
+
+    /// The seeks' gain learner ([`learn`]).
+    pub fn learner(&self) -> &SeekGainLearner {
+        &self.learner
     }
 
     /// The time-optimal seek's observer.
@@ -464,10 +481,23 @@ pub enum RedesignJob {
         theta: [ParamI12F20; MAX_MODEL_PARAMS],
         /// Entries of θ in use.
         len: u8,
-        /// θ was measured by power-on calibration (the seek plan's calibrated α and p), not
-        /// identified on-line.
-        calibrated: bool,
+        /// Where θ came from (the seek plan's α and p).
+        source: ModelSource,
+        /// ρ, I16F16: θ's gain terms (b… and c) are placed scaled by it ([`learn`]).
+        gain_ratio: i32,
     },
+}
+
+/// Where a placed θ came from: the seek plan's α and p are chosen by it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelSource {
+    /// Identified on-line (or the prior's).
+    Identified,
+    /// Measured by power-on calibration.
+    Calibrated,
+    /// Calibration's, its gain corrected by the seeks ([`learn`]).
+    Learnt,
 }
 
 /// What a redesign produced.
@@ -481,6 +511,10 @@ pub struct RedesignResult {
     /// The input compensation of the identified friction, when placed with `identify_friction`
     /// (`None` there: no friction worth compensating).
     pub compensation: Option<InverseInputMap>,
+    /// The job's θ's source.
+    pub source: ModelSource,
+    /// The job's ρ, I16F16.
+    pub gain_ratio: i32,
 }
 
 /// Identified Coulomb levels below this (fraction of full scale) are not compensated: the map's
@@ -606,6 +640,22 @@ impl ScheduledConfig {
         }
     }
 
+    /// θ with its gain terms (b… and the Coulomb term c = Σb·u_c: every entry past the na poles)
+    /// scaled by `gain_ratio` (I16F16, [`learn`]), saturating at the format's range; ρ = 1
+    /// returns θ exactly.
+    fn scale_gain_terms(
+        &self,
+        theta: &[ParamI12F20; MAX_MODEL_PARAMS],
+        gain_ratio: i32,
+    ) -> [ParamI12F20; MAX_MODEL_PARAMS] {
+        let mut scaled = *theta;
+        for t in scaled.iter_mut().skip(self.na) {
+            let x = shr_round_i64(i64::from(t.raw()).saturating_mul(i64::from(gain_ratio)), 16);
+            *t = ParamI12F20::from_raw(sat_i32(x, &mut false));
+        }
+        scaled
+    }
+
     /// Supervisor bookkeeping of one identifier report; true when it distrusts the model now.
     fn supervise(&self, state: &mut ScheduledState, report: &ModelReport) -> bool {
         let bad = report.status.intersects(DISTRUST);
@@ -644,6 +694,7 @@ impl ScheduledConfig {
         let mut s = self.measure(state, r, y, report, &mut tally);
         let sel = self.select(state, &mut s, &mut tally.flags);
         request_redesign_when_due(state, &s, &sel, &mut tally.flags);
+        self.learn_seek_gain(state, &s, &sel, &mut tally.flags);
         tally.flags.set_if(ControlFlags::FALLBACK, s.falling_back);
         if s.falling_back && self.prior_gains.is_none() {
             return self.step_baseline(state, &s, sel.region, tally);
@@ -731,6 +782,8 @@ impl ScheduledConfig {
             e_seek,
             v_seek,
             time_optimal,
+            y_lin,
+            v_prev,
             distrusted,
             falling_back,
         }
@@ -800,6 +853,38 @@ impl ScheduledConfig {
             region,
             changed,
             verdict,
+        }
+    }
+
+    /// The seeks' gain learner ([`learn`]), for gains placed from calibration: a seek from rest
+    /// opens its window, each Seek sample feeds it, leaving Seek closes it; a learnt ratio far
+    /// enough from the gains in use asks for a redesign.
+    fn learn_seek_gain(
+        &self,
+        state: &mut ScheduledState,
+        s: &Sample,
+        sel: &Selection,
+        flags: &mut ControlFlags,
+    ) {
+        if !(s.time_optimal && state.calibrated_plan) || s.falling_back {
+            state.learner.finish();
+            return;
+        }
+        let due = if sel.region != Region::Seek {
+            state.learner.finish()
+        } else if sel.previous != Region::Seek || flags.contains(ControlFlags::FIRST_SAMPLE) {
+            if s.dy1 == 0 && state.gains.seek.at_rest(s.v_seek) {
+                state.learner.start(s.y_lin, s.r.raw());
+            } else {
+                state.learner.finish();
+            }
+            false
+        } else {
+            state.learner.step(&state.gains.seek, s.v_prev, s.y_lin)
+        };
+        if due {
+            state.gain_redesign_pending = true;
+            flags.insert(ControlFlags::REDESIGN_REQUESTED);
         }
     }
 
@@ -1062,6 +1147,10 @@ struct Sample {
     v_seek: i32,
     /// Seeks are time-optimal.
     time_optimal: bool,
+    /// The linear position, I48F16 raw quanta.
+    y_lin: i64,
+    /// The linear drive the model saw over the last sample, I16F16 raw full scale.
+    v_prev: i32,
     /// The supervisor distrusts the model this sample.
     distrusted: bool,
     /// The model is refused or distrusted: the prior's gains, or the baseline PID, drive.
@@ -1139,8 +1228,9 @@ fn request_redesign_when_due(
     }
 }
 
-/// The job placing gains from `theta` (zero-padded), `calibrated` or identified on-line.
-fn place(theta: &[ParamI12F20], calibrated: bool) -> RedesignJob {
+/// The job placing gains from `theta` (zero-padded) of `source`, its gain terms scaled by
+/// `gain_ratio` (I16F16).
+fn place(theta: &[ParamI12F20], source: ModelSource, gain_ratio: i32) -> RedesignJob {
     let mut copy = [ParamI12F20::ZERO; MAX_MODEL_PARAMS];
     for (c, t) in copy.iter_mut().zip(theta) {
         *c = *t;
@@ -1148,7 +1238,8 @@ fn place(theta: &[ParamI12F20], calibrated: bool) -> RedesignJob {
     RedesignJob::Place {
         theta: copy,
         len: theta.len().min(MAX_MODEL_PARAMS) as u8, // ≤ 4
-        calibrated,
+        source,
+        gain_ratio,
     }
 }
 
@@ -1178,6 +1269,12 @@ impl Controller for ScheduledConfig {
         state: &mut ScheduledState,
         theta: &[ParamI12F20],
     ) -> Option<RedesignJob> {
+        if state.gain_redesign_pending {
+            // The seeks' gain learnt: θ (calibration's) placed again at ρ.
+            state.gain_redesign_pending = false;
+            state.redesign_pending = false;
+            return Some(place(theta, ModelSource::Learnt, state.learner.ratio()));
+        }
         if !state.redesign_pending {
             return None;
         }
@@ -1189,11 +1286,11 @@ impl Controller for ScheduledConfig {
             return Some(RedesignJob::Skip);
         }
         state.trusted_updates = 0;
-        Some(place(theta, false))
+        Some(place(theta, ModelSource::Identified, state.learner.ratio()))
     }
 
     fn place_job(&self, theta: &[ParamI12F20]) -> RedesignJob {
-        place(theta, true)
+        place(theta, ModelSource::Calibrated, RATIO_ONE)
     }
 
     fn placed(design: &RedesignResult) -> bool {
@@ -1211,14 +1308,18 @@ impl Controller for ScheduledConfig {
                     outcome: Redesign::Skipped,
                     gains: None,
                     compensation: None,
+                    source: ModelSource::Identified,
+                    gain_ratio: RATIO_ONE,
                 };
             }
             RedesignJob::Place {
                 theta,
                 len,
-                calibrated,
+                source,
+                gain_ratio,
             } => {
-                let (linear, c) = self.split_theta(theta.get(..usize::from(*len)).unwrap_or(&[]));
+                let scaled = self.scale_gain_terms(theta, *gain_ratio);
+                let (linear, c) = self.split_theta(scaled.get(..usize::from(*len)).unwrap_or(&[]));
                 super::placement::reduce(linear, self.na, &self.supervisor).and_then(|mut m| {
                     let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
                     // b_sum > 0: reduce refuses a non-positive gain (Σb has the sign of b).
@@ -1232,10 +1333,12 @@ impl Controller for ScheduledConfig {
                         } else {
                             compensation_level(self.compensation.as_ref())
                         };
-                        let (alpha, pole) = if *calibrated {
-                            (d.alpha_calibrated, d.velocity_pole_calibrated)
-                        } else {
-                            (d.alpha, d.velocity_pole)
+                        let (alpha, pole) = match source {
+                            ModelSource::Identified => (d.alpha, d.velocity_pole),
+                            ModelSource::Calibrated => {
+                                (d.alpha_calibrated, d.velocity_pole_calibrated)
+                            }
+                            ModelSource::Learnt => (d.alpha_calibrated, d.velocity_pole_learnt),
                         };
                         g.seek = self
                             .seek_plan(m, u_c, alpha, pole)
@@ -1244,6 +1347,14 @@ impl Controller for ScheduledConfig {
                     Ok((m, g))
                 })
             }
+        };
+        let (source, gain_ratio) = match job {
+            RedesignJob::Place {
+                source,
+                gain_ratio,
+                ..
+            } => (*source, *gain_ratio),
+            _ => (ModelSource::Identified, RATIO_ONE),
         };
         match placed {
             Ok((model, gains)) => RedesignResult {
@@ -1254,11 +1365,15 @@ impl Controller for ScheduledConfig {
                 } else {
                     None
                 },
+                source,
+                gain_ratio,
             },
             Err(r) => RedesignResult {
                 outcome: Redesign::Rejected(r),
                 gains: None,
                 compensation: None,
+                source,
+                gain_ratio,
             },
         }
     }
@@ -1271,6 +1386,8 @@ impl Controller for ScheduledConfig {
             (Redesign::Applied(_), Some(g)) => {
                 state.gains = *g;
                 state.fallback = false;
+                state.calibrated_plan = design.source != ModelSource::Identified;
+                state.learner.adopt(design.gain_ratio);
                 if self.identify_friction {
                     state.compensation = design.compensation;
                 }
