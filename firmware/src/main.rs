@@ -52,14 +52,17 @@
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+/// The defmt logger over semihosting (no panic path).
+#[cfg(target_os = "none")]
+mod logger;
+
 #[cfg(target_os = "none")]
 mod target {
-    use core::cell::RefCell;
+    use core::cell::Cell;
 
     use cortex_m::peripheral::{SCB, SYST};
     use cortex_m_rt::{entry, exception};
     use critical_section::Mutex;
-    use defmt_semihosting as _;
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
@@ -82,6 +85,21 @@ mod target {
     /// SysTick reload for one sample period on [`PART`]'s clock: 32,759 at 72 MHz, 21,839 at
     /// 48 MHz.
     const SYST_RELOAD: u32 = PART.syst_reload();
+
+    // cortex-m-rt's default handler (every exception and interrupt without one of its own).
+    #[allow(unsafe_code)] // declares a symbol of cortex-m-rt's `link.x`; never called from Rust
+    unsafe extern "C" {
+        fn DefaultHandler();
+    }
+
+    /// The device-specific part of the vector table (cortex-m-rt's `device` feature, `build.rs`):
+    /// one entry, IRQ 0, to cortex-m-rt's default handler — the image enables no device interrupt
+    /// (SysTick is a core exception) and cortex-m-rt requires at least one. The generic table it
+    /// replaces held 240 entries on v7-M (960 bytes of flash), 32 on v6-M.
+    #[allow(unsafe_code)] // `no_mangle` + `link_section`: the symbol cortex-m-rt's `link.x` places
+    #[unsafe(link_section = ".vector_table.interrupts")]
+    #[unsafe(no_mangle)]
+    static __INTERRUPTS: [unsafe extern "C" fn(); 1] = [DefaultHandler];
 
     /// Stack paint pattern.
     const PAINT: u32 = 0xCCCC_CCCC;
@@ -192,13 +210,22 @@ mod target {
         }
     }
 
-    /// The loop, once `main` has built it (a pointer: `.bss`).
-    static LOOP: Mutex<RefCell<Option<&'static mut Loop>>> = Mutex::new(RefCell::new(None));
+    /// The loop, once `main` has built it (a pointer: `.bss`). A `Cell` the pointer is taken out
+    /// of and put back, not a `RefCell`: a `RefCell`'s borrow check is a panic path, and its
+    /// message's formatting would link `core::fmt` into the image.
+    static LOOP: Mutex<Cell<Option<&'static mut Loop>>> = Mutex::new(Cell::new(None));
 
-    /// `f` on the loop, in a critical section (`None` before it is built).
+    /// `f` on the loop, in a critical section (`None` before it is built; inside the critical
+    /// section nothing else can be holding it).
     #[inline(always)]
     fn with_loop<T>(f: impl FnOnce(&mut Loop) -> T) -> Option<T> {
-        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).as_deref_mut().map(f))
+        critical_section::with(|cs| {
+            let cell = LOOP.borrow(cs);
+            let state = cell.take()?;
+            let out = f(&mut *state);
+            cell.set(Some(state));
+            Some(out)
+        })
     }
 
     /// The sample-period interrupt: one period of the loop. It never waits for the background (a
@@ -506,7 +533,7 @@ mod target {
         let Some(state) = install(config, (tap, producer), link, syst) else {
             return false;
         };
-        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).replace(state));
+        critical_section::with(|cs| LOOP.borrow(cs).set(Some(state)));
 
         let late = background(config, health, &mut consumer);
         report(late, health, &mut consumer)
