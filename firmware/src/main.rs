@@ -385,6 +385,48 @@ mod target {
         health.adopt(consumer, answer);
     }
 
+    /// Power-on calibration's record, when the loop has posted it: the fit, its answer handed
+    /// back into the loop's state and, accepted, made the friction health's reference. `None`
+    /// without a record; else whether the hand-over refused the answer (its due sample had
+    /// passed). Out of line, as [`redesign_job`]: the record and the answer (≈ 1.3 KB) are on the
+    /// stack only while this runs, not under every redesign.
+    #[inline(never)]
+    fn calibration_job(
+        config: &SledServo,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> Option<bool> {
+        let posted = with_loop(|l| l.ticker.take_calibration_job()).flatten()?;
+        let answer = calibrate(config, &posted);
+        let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
+        if accepted == Some(true) {
+            health_adopt(health, consumer, &answer);
+        }
+        Some(accepted == Some(false))
+    }
+
+    /// The next redesign job, when the loop has posted one: the redesign, held back until the
+    /// loop has stepped the sample the host's fault injection asks for (the health queue drained
+    /// meanwhile), then handed back. `None` without a job; else whether the hand-over refused
+    /// the answer. Out of line (see [`calibration_job`]).
+    #[inline(never)]
+    fn redesign_job(
+        config: &SledServo,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> Option<bool> {
+        let (posted, release_at) =
+            with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at))).flatten()?;
+        let design = redesign(config, &posted);
+        // Held back until the loop has stepped `release_at` samples.
+        while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
+            health_drain(health, consumer);
+            cortex_m::asm::wfi();
+        }
+        let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
+        Some(accepted == Some(false))
+    }
+
     /// The background: takes power-on calibration's record and each redesign job the loop
     /// posts, computes the fit or the redesign, and hands the answer back into the loop's state
     /// (a redesign held back as long as the host's fault injection asks); the hand-over refuses
@@ -400,26 +442,12 @@ mod target {
     ) -> u32 {
         let mut late = 0u32;
         loop {
-            if let Some(Some(posted)) = with_loop(|l| l.ticker.take_calibration_job()) {
-                let answer = calibrate(config, &posted);
-                let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
-                late = late.wrapping_add(u32::from(accepted == Some(false)));
-                if accepted == Some(true) {
-                    health_adopt(health, consumer, &answer);
-                }
+            if let Some(refused) = calibration_job(config, health, consumer) {
+                late = late.wrapping_add(u32::from(refused));
                 continue;
             }
-            if let Some(Some((posted, release_at))) =
-                with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at)))
-            {
-                let design = redesign(config, &posted);
-                // Held back until the loop has stepped `release_at` samples.
-                while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
-                    health_drain(health, consumer);
-                    cortex_m::asm::wfi();
-                }
-                let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
-                late = late.wrapping_add(u32::from(accepted == Some(false)));
+            if let Some(refused) = redesign_job(config, health, consumer) {
+                late = late.wrapping_add(u32::from(refused));
                 continue; // a job posted meanwhile is waiting
             }
             health_drain(health, consumer);
