@@ -396,8 +396,12 @@ mod target {
         health: &mut HealthWatch,
         consumer: &mut HealthConsumer<'static>,
     ) -> Option<bool> {
-        let posted = with_loop(|l| l.ticker.take_calibration_job()).flatten()?;
-        let answer = calibrate(config, &posted);
+        // Taken into this frame's slot, not returned through the critical section's closure: one
+        // copy of the record on the stack instead of two.
+        let mut slot = None;
+        with_loop(|l| slot = l.ticker.take_calibration_job());
+        let posted = slot.as_ref()?;
+        let answer = calibrate(config, posted);
         let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
         if accepted == Some(true) {
             health_adopt(health, consumer, &answer);
