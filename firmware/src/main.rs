@@ -528,20 +528,22 @@ mod target {
         link_ok
     }
 
-    /// Opens the link, starts SysTick, runs the background until the host ends the run, reports.
-    /// `true` on success.
+    /// Decodes the configuration, builds the health's queue and estimator, opens the link,
+    /// starts SysTick and hands the loop to the handler; what the background needs, or `None`
+    /// (said on the log where it is not the host's doing). Out of line: its temporaries (the
+    /// parts moved into the loop's state) are gone from the stack before the background runs.
     #[inline(never)]
-    fn run() -> bool {
-        let Some(cp) = cortex_m::Peripherals::take() else {
-            return false;
-        };
+    fn start() -> Option<(
+        &'static SledServo,
+        &'static mut HealthWatch,
+        HealthConsumer<'static>,
+    )> {
+        let cp = cortex_m::Peripherals::take()?;
         let Some(config) = install_config() else {
             defmt::println!("sledid-fw: the configuration words do not decode");
-            return false;
+            return None;
         };
-        let Some((tap, producer, mut consumer, health)) = install_health() else {
-            return false;
-        };
+        let (tap, producer, consumer, health) = install_health()?;
         defmt::println!(
             "sledid-fw: {=str}, SysTick reload {=u32}; hand-over latency {=u32} samples; \
              waiting for the host",
@@ -551,7 +553,7 @@ mod target {
         );
         let Some(link) = Link::open() else {
             defmt::println!("sledid-fw: no PIL link (run it with `cargo xtask pil`)");
-            return false;
+            return None;
         };
         #[cfg(target_abi = "eabihf")]
         {
@@ -562,11 +564,18 @@ mod target {
         let mut syst = cp.SYST;
         sledid_firmware::timing::start_sample_clock(&mut syst, SYST_RELOAD);
         // The handler owns SYST from here on; until the loop is built it does nothing.
-        let Some(state) = install(config, (tap, producer), link, syst) else {
+        let state = install(config, (tap, producer), link, syst)?;
+        critical_section::with(|cs| LOOP.borrow(cs).set(Some(state)));
+        Some((config, health, consumer))
+    }
+
+    /// Starts the loop ([`start`]), runs the background until the host ends the run, reports.
+    /// `true` on success.
+    #[inline(never)]
+    fn run() -> bool {
+        let Some((config, health, mut consumer)) = start() else {
             return false;
         };
-        critical_section::with(|cs| LOOP.borrow(cs).set(Some(state)));
-
         let late = background(config, health, &mut consumer);
         report(late, health, &mut consumer)
     }
