@@ -52,14 +52,17 @@
 #![deny(missing_docs, unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+/// The defmt logger over semihosting (no panic path).
+#[cfg(target_os = "none")]
+mod logger;
+
 #[cfg(target_os = "none")]
 mod target {
-    use core::cell::RefCell;
+    use core::cell::Cell;
 
     use cortex_m::peripheral::{SCB, SYST};
     use cortex_m_rt::{entry, exception};
     use critical_section::Mutex;
-    use defmt_semihosting as _;
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
@@ -82,6 +85,21 @@ mod target {
     /// SysTick reload for one sample period on [`PART`]'s clock: 32,759 at 72 MHz, 21,839 at
     /// 48 MHz.
     const SYST_RELOAD: u32 = PART.syst_reload();
+
+    // cortex-m-rt's default handler (every exception and interrupt without one of its own).
+    #[allow(unsafe_code)] // declares a symbol of cortex-m-rt's `link.x`; never called from Rust
+    unsafe extern "C" {
+        fn DefaultHandler();
+    }
+
+    /// The device-specific part of the vector table (cortex-m-rt's `device` feature, `build.rs`):
+    /// one entry, IRQ 0, to cortex-m-rt's default handler — the image enables no device interrupt
+    /// (SysTick is a core exception) and cortex-m-rt requires at least one. The generic table it
+    /// replaces held 240 entries on v7-M (960 bytes of flash), 32 on v6-M.
+    #[allow(unsafe_code)] // `no_mangle` + `link_section`: the symbol cortex-m-rt's `link.x` places
+    #[unsafe(link_section = ".vector_table.interrupts")]
+    #[unsafe(no_mangle)]
+    static __INTERRUPTS: [unsafe extern "C" fn(); 1] = [DefaultHandler];
 
     /// Stack paint pattern.
     const PAINT: u32 = 0xCCCC_CCCC;
@@ -192,13 +210,22 @@ mod target {
         }
     }
 
-    /// The loop, once `main` has built it (a pointer: `.bss`).
-    static LOOP: Mutex<RefCell<Option<&'static mut Loop>>> = Mutex::new(RefCell::new(None));
+    /// The loop, once `main` has built it (a pointer: `.bss`). A `Cell` the pointer is taken out
+    /// of and put back, not a `RefCell`: a `RefCell`'s borrow check is a panic path, and its
+    /// message's formatting would link `core::fmt` into the image.
+    static LOOP: Mutex<Cell<Option<&'static mut Loop>>> = Mutex::new(Cell::new(None));
 
-    /// `f` on the loop, in a critical section (`None` before it is built).
+    /// `f` on the loop, in a critical section (`None` before it is built; inside the critical
+    /// section nothing else can be holding it).
     #[inline(always)]
     fn with_loop<T>(f: impl FnOnce(&mut Loop) -> T) -> Option<T> {
-        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).as_deref_mut().map(f))
+        critical_section::with(|cs| {
+            let cell = LOOP.borrow(cs);
+            let state = cell.take()?;
+            let out = f(&mut *state);
+            cell.set(Some(state));
+            Some(out)
+        })
     }
 
     /// The sample-period interrupt: one period of the loop. It never waits for the background (a
@@ -358,6 +385,52 @@ mod target {
         health.adopt(consumer, answer);
     }
 
+    /// Power-on calibration's record, when the loop has posted it: the fit, its answer handed
+    /// back into the loop's state and, accepted, made the friction health's reference. `None`
+    /// without a record; else whether the hand-over refused the answer (its due sample had
+    /// passed). Out of line, as [`redesign_job`]: the record and the answer (≈ 1.3 KB) are on the
+    /// stack only while this runs, not under every redesign.
+    #[inline(never)]
+    fn calibration_job(
+        config: &SledServo,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> Option<bool> {
+        // Taken into this frame's slot, not returned through the critical section's closure: one
+        // copy of the record on the stack instead of two.
+        let mut slot = None;
+        with_loop(|l| slot = l.ticker.take_calibration_job());
+        let posted = slot.as_ref()?;
+        let answer = calibrate(config, posted);
+        let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
+        if accepted == Some(true) {
+            health_adopt(health, consumer, &answer);
+        }
+        Some(accepted == Some(false))
+    }
+
+    /// The next redesign job, when the loop has posted one: the redesign, held back until the
+    /// loop has stepped the sample the host's fault injection asks for (the health queue drained
+    /// meanwhile), then handed back. `None` without a job; else whether the hand-over refused
+    /// the answer. Out of line (see [`calibration_job`]).
+    #[inline(never)]
+    fn redesign_job(
+        config: &SledServo,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> Option<bool> {
+        let (posted, release_at) =
+            with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at))).flatten()?;
+        let design = redesign(config, &posted);
+        // Held back until the loop has stepped `release_at` samples.
+        while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
+            health_drain(health, consumer);
+            cortex_m::asm::wfi();
+        }
+        let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
+        Some(accepted == Some(false))
+    }
+
     /// The background: takes power-on calibration's record and each redesign job the loop
     /// posts, computes the fit or the redesign, and hands the answer back into the loop's state
     /// (a redesign held back as long as the host's fault injection asks); the hand-over refuses
@@ -373,26 +446,12 @@ mod target {
     ) -> u32 {
         let mut late = 0u32;
         loop {
-            if let Some(Some(posted)) = with_loop(|l| l.ticker.take_calibration_job()) {
-                let answer = calibrate(config, &posted);
-                let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
-                late = late.wrapping_add(u32::from(accepted == Some(false)));
-                if accepted == Some(true) {
-                    health_adopt(health, consumer, &answer);
-                }
+            if let Some(refused) = calibration_job(config, health, consumer) {
+                late = late.wrapping_add(u32::from(refused));
                 continue;
             }
-            if let Some(Some((posted, release_at))) =
-                with_loop(|l| l.ticker.take_job().map(|job| (job, l.release_at)))
-            {
-                let design = redesign(config, &posted);
-                // Held back until the loop has stepped `release_at` samples.
-                while with_loop(|l| l.stepped < release_at && l.ended.is_none()) == Some(true) {
-                    health_drain(health, consumer);
-                    cortex_m::asm::wfi();
-                }
-                let accepted = with_loop(|l| l.ticker.deliver(posted.ticket, design));
-                late = late.wrapping_add(u32::from(accepted == Some(false)));
+            if let Some(refused) = redesign_job(config, health, consumer) {
+                late = late.wrapping_add(u32::from(refused));
                 continue; // a job posted meanwhile is waiting
             }
             health_drain(health, consumer);
@@ -469,20 +528,22 @@ mod target {
         link_ok
     }
 
-    /// Opens the link, starts SysTick, runs the background until the host ends the run, reports.
-    /// `true` on success.
+    /// Decodes the configuration, builds the health's queue and estimator, opens the link,
+    /// starts SysTick and hands the loop to the handler; what the background needs, or `None`
+    /// (said on the log where it is not the host's doing). Out of line: its temporaries (the
+    /// parts moved into the loop's state) are gone from the stack before the background runs.
     #[inline(never)]
-    fn run() -> bool {
-        let Some(cp) = cortex_m::Peripherals::take() else {
-            return false;
-        };
+    fn start() -> Option<(
+        &'static SledServo,
+        &'static mut HealthWatch,
+        HealthConsumer<'static>,
+    )> {
+        let cp = cortex_m::Peripherals::take()?;
         let Some(config) = install_config() else {
             defmt::println!("sledid-fw: the configuration words do not decode");
-            return false;
+            return None;
         };
-        let Some((tap, producer, mut consumer, health)) = install_health() else {
-            return false;
-        };
+        let (tap, producer, consumer, health) = install_health()?;
         defmt::println!(
             "sledid-fw: {=str}, SysTick reload {=u32}; hand-over latency {=u32} samples; \
              waiting for the host",
@@ -492,7 +553,7 @@ mod target {
         );
         let Some(link) = Link::open() else {
             defmt::println!("sledid-fw: no PIL link (run it with `cargo xtask pil`)");
-            return false;
+            return None;
         };
         #[cfg(target_abi = "eabihf")]
         {
@@ -503,11 +564,18 @@ mod target {
         let mut syst = cp.SYST;
         sledid_firmware::timing::start_sample_clock(&mut syst, SYST_RELOAD);
         // The handler owns SYST from here on; until the loop is built it does nothing.
-        let Some(state) = install(config, (tap, producer), link, syst) else {
+        let state = install(config, (tap, producer), link, syst)?;
+        critical_section::with(|cs| LOOP.borrow(cs).set(Some(state)));
+        Some((config, health, consumer))
+    }
+
+    /// Starts the loop ([`start`]), runs the background until the host ends the run, reports.
+    /// `true` on success.
+    #[inline(never)]
+    fn run() -> bool {
+        let Some((config, health, mut consumer)) = start() else {
             return false;
         };
-        critical_section::with(|cs| LOOP.borrow_ref_mut(cs).replace(state));
-
         let late = background(config, health, &mut consumer);
         report(late, health, &mut consumer)
     }

@@ -123,8 +123,13 @@ impl Gain {
     /// The value (exact for a valid gain; an invalid shift ≥ 64 reads as 0, never a panic).
     #[allow(clippy::float_arithmetic)] // diagnostics, not the per-sample path
     pub fn to_f64(self) -> f64 {
-        1u64.checked_shl(self.s)
-            .map_or(0.0, |d| f64::from(self.m) / 65_536.0 / d as f64)
+        // m / 2¹⁶ / 2^s as one product with 2^−(16 + s), built from its bits: both are exact
+        // (|m| < 2³¹, 16 + s ≤ 79: no rounding, no subnormal), so the value is the quotient's to
+        // the bit — and an image that reads a gain needs no soft-float `f64` division.
+        if self.s >= 64 {
+            return 0.0;
+        }
+        f64::from(self.m) * f64::from_bits((1023 - 16 - u64::from(self.s)) << 52)
     }
 
     /// A quantised gain as [`Self::from_f64`] makes them: `s ≤ 62`, `m ≠ i32::MIN` (so |m| < 2³¹).
@@ -313,6 +318,32 @@ mod tests {
             i128::from(mul_i64_u1f31(-x, c)),
             (-i128::from(x) * i128::from(c) + (1 << 30)) >> 31
         );
+    }
+
+    /// `to_f64`'s product with 2^−(16 + s) is the former quotient m / 65,536 / 2^s to the bit,
+    /// over mantissas of every magnitude and sign and every shift (invalid ones read 0).
+    #[test]
+    fn to_f64_is_the_quotient_to_the_bit() {
+        let mut x: u32 = 0x2545_F491;
+        for s in 0..70u32 {
+            for i in 0..400 {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                let m = match i {
+                    0 => 0,
+                    1 => i32::MAX,
+                    2 => i32::MIN + 1,
+                    3 => -1,
+                    _ => (x as i32) >> (i % 31),
+                };
+                let g = Gain { m, s };
+                let want = 1u64
+                    .checked_shl(s)
+                    .map_or(0.0, |d| f64::from(m) / 65_536.0 / d as f64);
+                assert_eq!(g.to_f64().to_bits(), want.to_bits(), "m {m} s {s}");
+            }
+        }
     }
 
     #[test]

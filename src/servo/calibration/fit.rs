@@ -169,7 +169,12 @@ fn gauss(mut m: [[f32; P + 1]; P]) -> Option<[f32; P]> {
         if pivot.1.partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) {
             return None;
         }
-        m.swap(col, pivot.0);
+        // The pivot row to `col` (rows below `col` only): `split_at_mut_checked` and `get_mut`
+        // instead of `swap`, whose bounds check is a panic path (`pivot.0 < P` always holds).
+        if pivot.0 > col {
+            let (upper, lower) = m.split_at_mut_checked(pivot.0)?;
+            core::mem::swap(upper.get_mut(col)?, lower.first_mut()?);
+        }
         let (top, rest) = m.split_at_mut(col + 1);
         let prow = top.last()?;
         let p = *prow.get(col)?;
