@@ -15,7 +15,14 @@ use sledid_host::twin::TwinParams;
 /// One simulated seek of a first-order sled whose gain is `rho` times the plan's (a, b): `n1`
 /// samples at `u1` full scale, then braking at −u1/2 while the plan's model still advances; the
 /// readings rounded (with a deterministic ±`noise` quantum dither). Returns (drives, readings).
-fn simulated_seek(a: f64, b: f64, rho: f64, n1: usize, u1: f64, noise: f64) -> (Vec<f64>, Vec<f64>) {
+fn simulated_seek(
+    a: f64,
+    b: f64,
+    rho: f64,
+    n1: usize,
+    u1: f64,
+    noise: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let (c1, b0) = sampled_f64(a, b);
     let (mut x, mut v, mut vm) = (0.3, 0.0, 0.0);
     let mut drives = Vec::new();
@@ -76,7 +83,9 @@ fn fixed_point_ratio_tracks_float64_on_simulated_seeks() {
             cases += 1;
         }
     }
-    println!("{cases} seeks: fixed vs f64 {worst_fixed:.2e}, f64 vs the true ratio {worst_truth:.2e}");
+    println!(
+        "{cases} seeks: fixed vs f64 {worst_fixed:.2e}, f64 vs the true ratio {worst_truth:.2e}"
+    );
     assert!(worst_fixed <= 2e-3, "fixed point vs f64: {worst_fixed}");
     assert!(worst_truth <= 0.03, "estimate vs truth: {worst_truth}");
 }
@@ -137,7 +146,9 @@ fn the_fast_free_corner_learns_its_gain_and_lands() {
     let (learnt, calibrated, ratios) = corner_runs(Corner::FastFree);
     let n = ratios.len();
     let (median, p95) = (ratios[n / 2], ratios[n * 95 / 100]);
-    println!("fast free: learnt {learnt:.3?}, calibrated {calibrated:.3?}, median {median:.2}, p95 {p95:.2}");
+    println!(
+        "fast free: learnt {learnt:.3?}, calibrated {calibrated:.3?}, median {median:.2}, p95 {p95:.2}"
+    );
     assert!(learnt.iter().all(|r| (r - 1.0).abs() <= 0.03), "{learnt:?}");
     assert!(median <= 1.5 && p95 <= 2.5, "median {median}, p95 {p95}");
 }
@@ -159,7 +170,10 @@ fn the_fast_sticky_corner_learns_its_gain() {
         ratios[n * 95 / 100]
     );
     for (l, c) in learnt.iter().zip(&calibrated) {
-        assert!((l - 1.0).abs() < (c - 1.0).abs(), "{learnt:?} vs {calibrated:?}");
+        assert!(
+            (l - 1.0).abs() < (c - 1.0).abs(),
+            "{learnt:?} vs {calibrated:?}"
+        );
         assert!((l - 1.0).abs() <= 0.06, "{learnt:?}");
     }
 }

@@ -1350,9 +1350,7 @@ impl Controller for ScheduledConfig {
         };
         let (source, gain_ratio) = match job {
             RedesignJob::Place {
-                source,
-                gain_ratio,
-                ..
+                source, gain_ratio, ..
             } => (*source, *gain_ratio),
             _ => (ModelSource::Identified, RATIO_ONE),
         };
