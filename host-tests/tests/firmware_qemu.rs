@@ -739,12 +739,13 @@ fn pil_matches_host(core: Core) {
         .map(|&k| records[k as usize].up.region_index())
         .collect();
     assert_eq!(missed.len(), faults.missed_jobs.len(), "{missed:?}");
-    // The seek mode posts its redesign on arrival: both misses fall while settling, which goes
-    // on with the old gains (every seek settled, above).
+    // The seek mode posts its redesign on arrival: both misses fall after the seek — L = 64
+    // samples later, in Hold (at L = 12 they fell in Settle) — which goes on with the old gains
+    // (every seek settled, above).
     assert_eq!(
         missed_regions,
-        [Region::Settle.index(); 2],
-        "hand-overs missed while settling: {missed:?} in regions {missed_regions:?}"
+        [Region::Hold.index(); 2],
+        "hand-overs missed while holding: {missed:?} in regions {missed_regions:?}"
     );
     assert_eq!(
         timing.late_dropped,

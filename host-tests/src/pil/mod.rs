@@ -69,12 +69,17 @@ use sledid_firmware::{
     RESULT_PREFIX, Summary, TIMING_PREFIX, Ticker, UpFrame,
 };
 
-/// L, the firmware's hand-over latency: a redesign requested by sample k is adopted at k + 12
-/// (5.5 ms). The background gets what the interrupt leaves of each period, and one redesign
+/// L, the firmware's hand-over latency: a redesign requested by sample k is adopted at k + 64
+/// (29 ms). The background gets what the interrupt leaves of each period, and one redesign
 /// (the placement and the Coulomb inverse map) takes up to ≈ 9.4 periods of that on the
-/// M0+ at 48 MHz (≈ 2.2 on the M4F at 72 MHz); 12 leaves two periods of margin. Measured in
-/// `BENCHMARKS.md` (`sledid_fw_bench_redesign`).
-pub const HANDOVER_LATENCY: u16 = 12;
+/// M0+ at 48 MHz (≈ 2.2 on the M4F at 72 MHz; `BENCHMARKS.md`, `sledid_fw_bench_redesign`) —
+/// but it queues behind the friction health's drain (a full queue: 15 samples of the neuron,
+/// up to ≈ 30 periods on the M0+). L = 12 sufficed while the calibrated product placed no
+/// redesign after calibration; since the seeks learn their gain (`control::scheduled::learn`)
+/// the M0+ missed a learnt redesign's hand-over at 12 on the fast, sticky corner sled
+/// (`firmware_qemu`, 2026-11-27). A learnt redesign is adopted in the dwell after its seek
+/// (≥ 0.3 s): 64 costs nothing there.
+pub const HANDOVER_LATENCY: u16 = 64;
 
 /// The fit's hand-over latency on target: calibration's record is answered by the background at
 /// sample k + 3,072 (1.40 s). The fit ([`sledid::servo::SledServo::calibrate`], `f32`) is measured

@@ -12,6 +12,8 @@ pub const SEGMENTS: usize = 4;
 pub const SEGMENT_LEN: usize = 48;
 
 const ONE: i32 = 1 << 16;
+/// The breakaway search holds its cap this many times a level's samples before it refuses.
+const MAX_LEVEL_HOLDS: u16 = 8;
 
 /// One push from rest: the drive d·U for samples j < `push_len`, −d·U from there (braking), and
 /// the readings x(j) − x(0), I16F16 raw quanta, valid for j < `len` (braking samples after the
@@ -351,13 +353,25 @@ impl CalibrationState {
                 if rel(y, self.origin).saturating_mul(d) <= -c.moved_i16f16.saturating_mul(4) {
                     return (0, Event::Refused(Refusal::Reversed));
                 }
+                // The largest level is the cap itself, held MAX_LEVEL_HOLDS times as long: a
+                // slow sled just past its breakaway there (the slow, sticky corner: ≈ 0.4 full
+                // scale, 1.4 quanta per sample per full scale) needs a few samples to move the
+                // threshold; refused as stuck only after that.
                 self.held += 1;
-                if self.held >= c.hold {
-                    self.held = 0;
-                    self.level = mul(self.level, c.ratio_i16f16).max(self.level + 1);
-                    if self.level > c.breakaway_max_i16f16 {
+                let at_max = self.level >= c.breakaway_max_i16f16;
+                let hold = if at_max {
+                    c.hold.saturating_mul(MAX_LEVEL_HOLDS)
+                } else {
+                    c.hold
+                };
+                if self.held >= hold {
+                    if at_max {
                         return (0, Event::Refused(Refusal::Stuck));
                     }
+                    self.held = 0;
+                    self.level = mul(self.level, c.ratio_i16f16)
+                        .max(self.level + 1)
+                        .min(c.breakaway_max_i16f16);
                 }
                 (d * self.level, Event::None)
             }
