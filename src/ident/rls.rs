@@ -107,8 +107,9 @@ use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
-    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide,
-    mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
+    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_round_i32, mul_hi_u32,
+    mul_i32_wide, mul_i32_wide_compact, mul_i32_wide_signed, mul_u32_wide, mul_u32_wide_compact,
+    recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -481,7 +482,7 @@ fn scale_d(d: &mut [Dyadic], factor: Dyadic) {
 /// |a·b| ≤ 2^62 for `i32` operands, so the result always fits.
 #[inline(always)]
 fn mul_hi_round(a: i32, b: i32) -> i32 {
-    ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
+    mul_hi_round_i32(a, b)
 }
 
 /// The top 32 bits of a product `p` in `[2^62, 2^64)` after a one-bit normalisation, and that
@@ -850,7 +851,7 @@ fn nu_of(lo: u32, hi: i32) -> i32 {
 /// The accumulator plus `u·g`, as words.
 #[inline(always)]
 fn nu_acc(lo: u32, hi: i32, u: i32, g: i32) -> (u32, i32) {
-    let acc = ((i64::from(hi) << 32) | i64::from(lo)) + mul_i32_wide(u, g);
+    let acc = ((i64::from(hi) << 32) | i64::from(lo)) + mul_i32_wide_signed(u, g);
     (acc as u32, (acc >> 32) as i32)
 }
 
@@ -963,7 +964,7 @@ impl RlsConfig {
             let phi_j = phi.get(j).copied().unwrap_or(0);
             let mut acc = i64::from(phi_j) << U_FRAC_BITS;
             for (uij, ph) in col.iter().zip(phi.iter()) {
-                acc += mul_i32_wide(*uij, *ph);
+                acc += mul_i32_wide_signed(*uij, *ph);
                 u_or |= (uij ^ (uij >> 31)) as u32;
             }
             *fj = ((acc + (1 << 31)) >> 32) as i32;
