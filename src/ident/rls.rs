@@ -108,8 +108,7 @@ use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
     leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_round_i32, mul_hi_u32,
-    mul_i32_wide, mul_i32_wide_compact, mul_i32_wide_signed, mul_u32_wide, mul_u32_wide_compact,
-    recip_q61,
+    mul_i32_wide, mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -851,7 +850,7 @@ fn nu_of(lo: u32, hi: i32) -> i32 {
 /// The accumulator plus `u·g`, as words.
 #[inline(always)]
 fn nu_acc(lo: u32, hi: i32, u: i32, g: i32) -> (u32, i32) {
-    let acc = ((i64::from(hi) << 32) | i64::from(lo)) + mul_i32_wide_signed(u, g);
+    let acc = ((i64::from(hi) << 32) | i64::from(lo)) + mul_i32_wide(u, g);
     (acc as u32, (acc >> 32) as i32)
 }
 
@@ -964,7 +963,7 @@ impl RlsConfig {
             let phi_j = phi.get(j).copied().unwrap_or(0);
             let mut acc = i64::from(phi_j) << U_FRAC_BITS;
             for (uij, ph) in col.iter().zip(phi.iter()) {
-                acc += mul_i32_wide_signed(*uij, *ph);
+                acc += mul_i32_wide(*uij, *ph);
                 u_or |= (uij ^ (uij >> 31)) as u32;
             }
             *fj = ((acc + (1 << 31)) >> 32) as i32;
