@@ -107,8 +107,8 @@ use crate::ident::status::Status;
 use crate::num::dyadic::{Dyadic, EXP_MAX, EXP_MIN};
 use crate::num::fixed::{ParamI12F20, SignalI16F16, sat_i32, shift_round_i64, shr_round_i64};
 use crate::num::wide::{
-    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_u32, mul_i32_wide,
-    mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
+    leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_round_i32, mul_hi_u32,
+    mul_i32_wide, mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
 };
 use crate::words::{WordReader, WordWriter, Words};
 
@@ -481,7 +481,7 @@ fn scale_d(d: &mut [Dyadic], factor: Dyadic) {
 /// |a·b| ≤ 2^62 for `i32` operands, so the result always fits.
 #[inline(always)]
 fn mul_hi_round(a: i32, b: i32) -> i32 {
-    ((mul_i32_wide(a, b) + (1 << 31)) >> 32) as i32
+    mul_hi_round_i32(a, b)
 }
 
 /// The top 32 bits of a product `p` in `[2^62, 2^64)` after a one-bit normalisation, and that

@@ -203,22 +203,62 @@ pub fn mul_i32_u32_wide(a: i32, b: u32) -> i64 {
     }
 }
 
-/// Exact `a · b` as `i64` for signed operands.
+/// Exact `a · b` as `i64` for signed operands: one `SMULL` on Armv7-M; on Armv6-M
+/// [`mul_i32_wide_signed_halves`] (four `MULS`, no branch).
 #[inline(always)]
 pub fn mul_i32_wide(a: i32, b: i32) -> i64 {
     if ARMV6M {
-        mul_i32_wide_by_halves(a, b)
+        mul_i32_wide_signed_halves(a, b)
     } else {
         // One SMULL on Armv7-M; |a·b| ≤ 2^62.
         i64::from(a) * i64::from(b)
     }
 }
 
-/// The Armv6-M path of [`mul_i32_wide`], callable on every target so the tests can compare paths.
+/// Exact `a · b` from the absolute values' four 16×16 products and a sign fix-up (the previous
+/// Armv6-M path of [`mul_i32_wide`], kept as the tests' second reference).
 #[inline(always)]
 pub fn mul_i32_wide_by_halves(a: i32, b: i32) -> i64 {
     let p = mul_u32_wide_by_halves(a.unsigned_abs(), b.unsigned_abs()) as i64;
     if (a < 0) != (b < 0) { -p } else { p }
+}
+
+/// The Armv6-M path of [`mul_i32_wide`], callable on every target so the tests can compare paths:
+/// four 16×16 products of the signed high and unsigned low halves summed in 32-bit words, with no
+/// absolute values, no 64-bit negation and no branch ([`mul_i32_wide_by_halves`] takes absolute
+/// values: RLS n = 4 update on the M0+ 5,255 → 5,030 est. cycles). a = a_h·2^16 + a_l with a_h = a >> 16 signed and a_l < 2^16; |a_h·b_l|, |a_l·b_h| < 2^31
+/// and a_h·b_h ≤ 2^30, so every partial product and partial sum fits an `i32`.
+#[inline(always)]
+pub fn mul_i32_wide_signed_halves(a: i32, b: i32) -> i64 {
+    let (hi, t, ll) = signed_partials(a, b);
+    let lo = ((t as u32) << 16) | (ll & 0xFFFF);
+    (i64::from(hi + (t >> 16)) << 32) | i64::from(lo)
+}
+
+/// `round(a·b / 2^32)` (half up) for signed operands: `SMMULR` on Armv7E-M; on Armv6-M the
+/// partial products of [`mul_i32_wide_signed_halves`] without the low word. |a·b| ≤ 2^62: the
+/// result always fits. The same result on every target (tested).
+#[inline(always)]
+pub fn mul_hi_round_i32(a: i32, b: i32) -> i32 {
+    if ARMV6M {
+        let (hi, t, _) = signed_partials(a, b);
+        // The low word's top bit is bit 15 of t: rounding adds it to the high word.
+        hi + ((t + 0x8000) >> 16)
+    } else {
+        ((i64::from(a) * i64::from(b) + (1 << 31)) >> 32) as i32
+    }
+}
+
+/// a·b = (`hi` + (`t` >> 16))·2^32 + (`t` mod 2^16)·2^16 + (`ll` mod 2^16), 0 ≤ t < 3·2^16.
+#[inline(always)]
+fn signed_partials(a: i32, b: i32) -> (i32, i32, u32) {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let ll = (al as u32) * (bl as u32);
+    let m1 = ah * bl;
+    let m2 = al * bh;
+    let t = (ll >> 16) as i32 + (m1 & 0xFFFF) + (m2 & 0xFFFF);
+    (ah * bh + (m1 >> 16) + (m2 >> 16), t, ll)
 }
 
 /// The high word of `a · b`, `floor(a·b / 2^32)`: one `UMULL` on Armv7-M, four 16×16 products on
@@ -483,6 +523,49 @@ mod tests {
                 let got = recip_q63(m);
                 assert!(exact - got <= 1 && got <= exact, "m = {m:#x}");
             }
+        }
+    }
+
+    #[test]
+    fn signed_halves_equal_the_native_product() {
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let edge = [
+            0i32,
+            1,
+            -1,
+            0xFFFF,
+            -0xFFFF,
+            0x1_0000,
+            -0x1_0000,
+            0x7FFF_FFFF,
+            i32::MIN,
+            i32::MIN + 1,
+            0x8000,
+            -0x8000,
+        ];
+        let check = |a: i32, b: i32| {
+            let p = i64::from(a) * i64::from(b);
+            assert_eq!(mul_i32_wide_signed_halves(a, b), p, "{a} {b}");
+            assert_eq!(mul_i32_wide(a, b), p, "{a} {b}");
+            assert_eq!(
+                mul_hi_round_i32(a, b),
+                ((p + (1 << 31)) >> 32) as i32,
+                "{a} {b}"
+            );
+            let (hi, t, _) = signed_partials(a, b);
+            assert_eq!(hi + ((t + 0x8000) >> 16), ((p + (1 << 31)) >> 32) as i32);
+        };
+        for &a in &edge {
+            for &b in &edge {
+                check(a, b);
+            }
+        }
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            check(x as i32, (x >> 32) as i32);
+            check((x as i32) >> (x % 31), (x >> 40) as i32);
         }
     }
 
