@@ -250,8 +250,9 @@ fn a_seek_past_the_end_stop_stops_inside_it() {
 /// step lands in a dwell); a tenth of the mass the servo re-identifies and keeps (no stop). Both
 /// end at rest inside the travel. With calibration (seeds 1–8): runaway at 16–18 samples on seven
 /// seeds; on seed 7 the servo calibrates again, and calibration refuses the sled
-/// (`calibration_stuck`, 415 samples after the step): every seed stops, at rest inside the
-/// travel. (Measured in between: ×3 and ×10 are braked and held without a stop; ×30 swings
+/// (`calibration_stuck`, 415 samples after the step; since the breakaway search holds its cap 16
+/// samples, 2026-11-27, the heavy sled moves there and runs out of the experiment's samples:
+/// `calibration_timeout`): every seed stops, at rest inside the travel. (Measured in between: ×3 and ×10 are braked and held without a stop; ×30 swings
 /// slowly inside the travel without a stop; ×300 is stopped at 18 samples but coasts past the end
 /// stop, beyond any margin.)
 #[test]
@@ -267,7 +268,9 @@ fn a_mass_step_the_loop_cannot_brake_stops() {
                 runaways += 1;
                 assert!(after <= 20, "seed {seed}: {after}");
             }
-            StopReason::Calibration(sledid::servo::Refusal::Stuck) => {}
+            StopReason::Calibration(
+                sledid::servo::Refusal::Stuck | sledid::servo::Refusal::Timeout,
+            ) => {}
             other => panic!("seed {seed}: {other:?}"),
         }
         assert!(o.at_rest, "seed {seed}: {o:?}");
