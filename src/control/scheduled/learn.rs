@@ -24,7 +24,7 @@
 //! ρ (the learnt gain over θ's) moves half of the way to ρ_in_use·r each seek; when it is more
 //! than 1/64 (1.6 %) away from the ratio of the gains in use a redesign is asked for, placed
 //! in the background from θ with its gain terms (b and the Coulomb term b·u_c) scaled by ρ
-//! ([`super::ScheduledConfig::redesign`]) at the learnt velocity pole
+//! ([`crate::control::Controller::redesign`]) at the learnt velocity pole
 //! ([`crate::control::TimeOptimalDesign::velocity_pole_learnt`]), adopted through the hand-over
 //! like every redesign.
 //! ρ stays within [¼, 4] of θ.
