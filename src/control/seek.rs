@@ -480,6 +480,15 @@ impl SeekPlan {
         ]
     }
 
+    /// The model's move over one sample, c₁·v + b₀·u (I16F16 raw quanta, rounded), from the
+    /// velocity `v` (I16F16 raw quanta per sample) and the linear drive `drive` (I16F16 raw
+    /// full scale): the seek observer's prediction and the gain learner's open-loop model
+    /// (`crate::control::scheduled::learn`).
+    #[inline]
+    pub fn advance(&self, v: i32, drive: i32) -> i64 {
+        shr_round(self.k_c1.apply(v).saturating_add(self.k_b0.apply(drive)))
+    }
+
     /// The observer has the sled at rest: |v̂| ≤ v_arrive.
     #[inline]
     pub fn at_rest(&self, v_hat: i32) -> bool {
@@ -533,11 +542,7 @@ impl SeekObserver {
     /// last sample, I16F16 raw full scale), then correct on the reading `y` (I48F16 raw quanta)
     /// if it left the predicted cell. `saturated` is set when a narrowing saturated.
     pub fn update(&mut self, plan: &SeekPlan, drive: i32, y: i64, saturated: &mut bool) {
-        let dx = shr_round(
-            plan.k_c1
-                .apply(self.v_hat)
-                .saturating_add(plan.k_b0.apply(drive)),
-        );
+        let dx = plan.advance(self.v_hat, drive);
         // Rounded toward zero: with the drive cut, v̂ decays to exactly 0 (rounded to nearest,
         // a·v̂ sticks at a few LSB and x̂ creeps by them every sample of a dwell).
         let v_acc = plan

@@ -161,12 +161,7 @@ impl SeekGainLearner {
             return false;
         }
         let mut sat = false;
-        let dx = shr_round_i64(
-            plan.k_c1
-                .apply(self.v_model)
-                .saturating_add(plan.k_b0.apply(drive)),
-            16,
-        );
+        let dx = plan.advance(self.v_model, drive);
         let v = shr_round_i64(
             plan.k_a
                 .apply(self.v_model)

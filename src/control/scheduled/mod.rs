@@ -488,6 +488,18 @@ pub enum RedesignJob {
     },
 }
 
+impl RedesignJob {
+    /// The θ's source and gain ratio ρ (I16F16) a placement carries; (identified, 1) otherwise.
+    pub fn origin(&self) -> (ModelSource, i32) {
+        match self {
+            Self::Place {
+                source, gain_ratio, ..
+            } => (*source, *gain_ratio),
+            _ => (ModelSource::Identified, RATIO_ONE),
+        }
+    }
+}
+
 /// Where a placed θ came from: the seek plan's α and p are chosen by it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -1301,6 +1313,7 @@ impl Controller for ScheduledConfig {
     /// `identify_friction`, the Coulomb level u_c = c/Σb → its input compensation.
     #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
     fn redesign(&self, job: &RedesignJob) -> RedesignResult {
+        let (source, gain_ratio) = job.origin();
         let placed = match job {
             RedesignJob::Untrusted => Err(Rejection::Untrusted),
             RedesignJob::Skip => {
@@ -1308,17 +1321,12 @@ impl Controller for ScheduledConfig {
                     outcome: Redesign::Skipped,
                     gains: None,
                     compensation: None,
-                    source: ModelSource::Identified,
-                    gain_ratio: RATIO_ONE,
+                    source,
+                    gain_ratio,
                 };
             }
-            RedesignJob::Place {
-                theta,
-                len,
-                source,
-                gain_ratio,
-            } => {
-                let scaled = self.scale_gain_terms(theta, *gain_ratio);
+            RedesignJob::Place { theta, len, .. } => {
+                let scaled = self.scale_gain_terms(theta, gain_ratio);
                 let (linear, c) = self.split_theta(scaled.get(..usize::from(*len)).unwrap_or(&[]));
                 super::placement::reduce(linear, self.na, &self.supervisor).and_then(|mut m| {
                     let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
@@ -1347,12 +1355,6 @@ impl Controller for ScheduledConfig {
                     Ok((m, g))
                 })
             }
-        };
-        let (source, gain_ratio) = match job {
-            RedesignJob::Place {
-                source, gain_ratio, ..
-            } => (*source, *gain_ratio),
-            _ => (ModelSource::Identified, RATIO_ONE),
         };
         match placed {
             Ok((model, gains)) => RedesignResult {
