@@ -167,12 +167,17 @@ fn calibrated_seeks_on_the_plant_family() {
         // Seek errors (`ServoFlags::SEEK_ERROR`): every unsettled seek reported; settled seeks
         // reported all the same — settled after the seek error's budget (late, not lost), or off
         // track after settling (the reading left ±1 quantum and came back before the window's
-        // last 10 ms; `servo::calibration::watch`) — measured 58 / 64 of 10,000 (seeds 2–6:
-        // 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0 (39 / 35 / 30 at p 0.15
-        // before it, 44 / 35 / 29 with the learner at p 0.15 — whose fast corner sled then kept
-        // a p95 of 2.5 —, 3 / 12 / 15 before the off-track rule), asserted at the seeds'
-        // largest. Trips on a watch that reports seeks while they move or hold (thousands).
+        // last 10 ms; `servo::calibration::watch`), or hunting after settling (four drive
+        // pulses past the calibrated breakaway level, each the other way) — measured 62 / 65 of
+        // 10,000 since the hunting rule (58 / 64 before it: the rule flags 2 of the wider
+        // family's 9 failing plants that nothing flagged, seeds 1 / 7; at three pulses 84 / 76;
+        // seeds 2–6 before it: 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0
+        // (39 / 35 / 30 at p 0.15 before it, 44 / 35 / 29 with the learner at p 0.15 — whose
+        // fast corner sled then kept a p95 of 2.5 —, 3 / 12 / 15 before the off-track rule),
+        // asserted at the seeds' largest. Trips on a watch that reports seeks while they move or
+        // hold (thousands), or that hunts at three pulses (84 / 76; counted either way, a fine
+        // step's chatter too: 98 / 87).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
-        assert!(s.settled_reported <= 64, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 65, "seed {seed}: {s:?}");
     }
 }

@@ -650,6 +650,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             out.u = SignalI16F16::ZERO;
             servo.insert(ServoFlags::SAFE_STOP);
         }
+        state.watch.drive(out.u.raw());
         let u_plant = u_applied.unwrap_or(out.u);
         // Identify from motion only: at low speed the first-differenced quantisation noise
         // (negatively correlated from one difference to the next) biases the velocity pole down.

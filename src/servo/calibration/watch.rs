@@ -36,6 +36,22 @@
 //! least 1/16) and T₀ = 4/(1 − a) + 220 samples (four time constants and 100 ms), both fixed at
 //! the calibration's adoption ([`CalibrationWatch::arm`]). Integer arithmetic on the sample path.
 //!
+//! # Hunting after settling
+//! A settled command whose drive keeps rising past the calibrated breakaway level (in the
+//! drive's direction) hunts — the limit cycle of a sticky sled the settle law keeps kicking —
+//! even while its readings stay within ±1 quantum and the off-track rule sees nothing:
+//! ```text
+//! pulses: rises of |u| past u_s(sgn u) since the command settled, each the other way than the
+//!         last one counted;  seek error once pulses ≥ 4
+//! ```
+//! until the next command. A limit cycle pushes one way, then the other; a fine step pushes
+//! one way (its drive may cross the level several times as a flickering reading kicks the
+//! derivative: counted once), at most two per seek
+//! ([`crate::control::scheduled::rest::FINE_STEPS_MAX`]), each perhaps braked the other way:
+//! four alternating pulses are a hunt. Measured on the wider family's (`--wide`) failing plants
+//! with nothing flagged and on the healthy family's settled seeks reported (three pulses: more
+//! of the former flagged, twice the latter's rise): BENCHMARKS.md, "Seek errors".
+//!
 //! # Back-off: a re-calibration that finds the same sled
 //! A re-calibration whose model matches the one it replaces — K within ×/÷ [`SAME_GAIN`] and the
 //! Coulomb level within [`SAME_COULOMB_FS`] + 25 % of it — found no change: the commands missed
@@ -56,6 +72,10 @@ pub const SETTLED_SAMPLES: u16 = 22;
 /// 14 / 10 to 7 / 6, while the healthy family's settled seeks reported rose from 2 / 2 to
 /// 3 / 12 of 10,000 (BENCHMARKS.md, "Seek errors").
 pub const REPORT_EARLIER: u32 = 154;
+
+/// Drive pulses past the calibrated breakaway level after a command has settled that make it a
+/// hunt (module doc, "Hunting after settling").
+pub const HUNT_PULSES: u8 = 4;
 
 /// A re-calibrated gain K within this ratio either way of the previous one is the same sled's.
 pub const SAME_GAIN: f32 = 1.25;
@@ -92,6 +112,14 @@ pub struct CalibrationWatch {
     coulomb_fs_bits: u32,
     /// Re-calibrations in a row that found the same sled (≤ [`FRUITLESS_MAX`]).
     fruitless: u8,
+    /// The calibrated breakaway drive (+, −), I16F16 raw full scale (`i32::MAX`: none found).
+    breakaway_i16f16: [i32; 2],
+    /// Pulses past it since the command settled (≤ 255).
+    pulses: u8,
+    /// The last drive was past it.
+    strong: bool,
+    /// The direction of the last pulse counted (0: none yet).
+    last_pulse: i8,
     /// Commands in a row that missed their budget since the last re-calibration.
     misses: u16,
 }
@@ -111,6 +139,13 @@ impl CalibrationWatch {
             r: i64::MIN,
             gain_k_bits: model.gain_k.to_bits(),
             coulomb_fs_bits: model.coulomb_mean_fs().to_bits(),
+            breakaway_i16f16: model.breakaway_fs.map(libm::fabsf).map(|b| {
+                if b.is_finite() && b > 0.0 {
+                    (b.min(2.0) * 65536.0) as i32
+                } else {
+                    i32::MAX
+                }
+            }),
             ..Self::default()
         }
     }
@@ -134,6 +169,9 @@ impl CalibrationWatch {
             self.settled = false;
             self.spent = self.resumed;
             self.resumed = false;
+            self.pulses = 0;
+            self.strong = false;
+            self.last_pulse = 0;
             // 2·d / v_max, both I16F16: the quotient is in samples.
             let travel = (e.min(1 << 47) as i64).saturating_mul(2) / self.v_max_i16f16.max(1);
             self.budget = u32::try_from(travel)
@@ -167,8 +205,36 @@ impl CalibrationWatch {
     /// passed or the command had settled (module doc).
     pub const fn seek_error(&self) -> bool {
         self.armed
-            && (self.settled || self.since >= self.budget.saturating_sub(REPORT_EARLIER))
-            && self.in_band < SETTLED_SAMPLES
+            && (((self.settled || self.since >= self.budget.saturating_sub(REPORT_EARLIER))
+                && self.in_band < SETTLED_SAMPLES)
+                || self.pulses >= HUNT_PULSES)
+    }
+
+    /// The drive `u_i16f16` (I16F16 raw full scale) the servo put out this sample: once the
+    /// command has settled, a rise past the calibrated breakaway level in its direction counts
+    /// a pulse when it pushes the other way than the last pulse counted (module doc, "Hunting
+    /// after settling").
+    pub fn drive(&mut self, u_i16f16: i32) {
+        if !(self.armed && self.settled) {
+            return;
+        }
+        let [pos, neg] = self.breakaway_i16f16;
+        let strong = if u_i16f16 >= 0 {
+            u_i16f16 > pos
+        } else {
+            u_i16f16.unsigned_abs() > neg.unsigned_abs()
+        };
+        let direction = if u_i16f16 < 0 { -1 } else { 1 };
+        if strong && !self.strong && direction != self.last_pulse {
+            self.pulses = self.pulses.saturating_add(1);
+            self.last_pulse = direction;
+        }
+        self.strong = strong;
+    }
+
+    /// Pulses past the calibrated breakaway level since the command in progress settled.
+    pub const fn pulses(&self) -> u8 {
+        self.pulses
     }
 
     /// The watch for a newly adopted calibration: armed from `model`; after a re-calibration
@@ -237,6 +303,54 @@ mod tests {
         assert!(w.seek_error(), "off again after its budget");
         assert!(!w.step(2 * r, r));
         assert!(!w.seek_error(), "a new command");
+    }
+
+    /// Hunting after settling: with the reading within ±1 quantum, three drive pulses past the
+    /// calibrated breakaway level (0.01 full scale), each the other way, are not reported (a
+    /// fine step or two and a brake), the fourth is, until the next command; drives at the level itself, a
+    /// long pulse, repeated pulses the same way (a fine step's chatter) and pulses before the
+    /// command settled do not count. Trips on counting samples instead of rises, on counting
+    /// before settling, on a threshold of 1, 2 or 3, on counting same-way pulses, on the level's
+    /// direction ignored, or on the count kept into the next command.
+    #[test]
+    fn alternating_pulses_past_the_breakaway_after_settling_report_a_hunt() {
+        let bk = (0.01f32 * 65536.0) as i32;
+        let mut w = CalibrationWatch::arm(&model());
+        let r = 320 * Q;
+        assert!(!w.step(r, 0));
+        for k in 0..10 {
+            assert!(!w.step(r, r));
+            w.drive(if k % 2 == 0 { 4 * bk } else { -4 * bk });
+            w.drive(0);
+        }
+        assert_eq!(w.pulses(), 0, "not settled yet");
+        for _ in 0..SETTLED_SAMPLES {
+            assert!(!w.step(r, r));
+        }
+        assert!(!w.seek_error(), "settled");
+        for pulse in 1..4u8 {
+            let sign = if pulse % 2 == 1 { 1 } else { -1 };
+            for _ in 0..3 {
+                for _ in 0..5 {
+                    w.drive(sign * 2 * bk); // a long pulse, three times the same way
+                }
+                w.drive(sign * bk); // at the level: not past it
+            }
+            w.drive(-sign * bk); // at the level the other way
+            assert!(!w.step(r, r));
+            assert_eq!(w.pulses(), pulse);
+            assert!(!w.seek_error(), "{pulse} pulses");
+        }
+        w.drive(-bk - 1);
+        assert!(!w.step(r, r));
+        assert!(w.seek_error(), "the fourth pulse, the other way again");
+        for _ in 0..SETTLED_SAMPLES {
+            assert!(!w.step(r, r));
+        }
+        assert!(w.seek_error(), "a hunt stays reported for its command");
+        assert!(!w.step(2 * r, r));
+        assert!(!w.seek_error(), "a new command");
+        assert_eq!(w.pulses(), 0);
     }
 
     /// Off track after settling, long before the budget (122 samples): a reading outside ±1
