@@ -960,12 +960,31 @@ impl RlsConfig {
             }
             *fj = ((acc + (1 << 31)) >> 32) as i32;
             if *fj != 0 {
-                let bl = 32 - leading_zeros_u32((*fj ^ (*fj >> 31)) as u32) as i32;
-                b_max = b_max.max(dj.exp() + bl + (32 - F_FRAC_BITS));
+                if ARMV6M {
+                    // Only the largest exponent here; the bit lengths below, by one search.
+                    b_max = b_max.max(dj.exp());
+                } else {
+                    let bl = 32 - leading_zeros_u32((*fj ^ (*fj >> 31)) as u32) as i32;
+                    b_max = b_max.max(dj.exp() + bl + (32 - F_FRAC_BITS));
+                }
             }
         }
         if b_max == i32::MIN {
             return Status::LOW_EXCITATION;
+        }
+        if ARMV6M {
+            // maxⱼ(e(dⱼ) + bⱼ) over the columns with f̂ⱼ ≠ 0 from one bit length (Armv6-M has no
+            // CLZ; the search is long): with E = maxⱼ e(dⱼ) there, bitlen(ORⱼ xⱼ >> (E − e(dⱼ)))
+            // = maxⱼ max(bⱼ − (E − e(dⱼ)), 0), and the column at E keeps the maximum ≥ 0: the
+            // same b_max as the per-column lengths.
+            let mut x_or = 0u32;
+            for (fj, dj) in fh.iter().zip(d.iter()) {
+                if *fj != 0 {
+                    let x = (*fj ^ (*fj >> 31)) as u32;
+                    x_or |= x.checked_shr((b_max - dj.exp()) as u32).unwrap_or(0);
+                }
+            }
+            b_max += 32 - leading_zeros_u32(x_or) as i32 + (32 - F_FRAC_BITS);
         }
         let headroom = nu_headroom(n, u_or);
         let e_nu = b_max - 31 + headroom;
