@@ -664,11 +664,25 @@ fn columns_mut(u: &mut [i32], n: usize) -> impl Iterator<Item = &mut [i32]> {
 
 /// ν's headroom H = bitlen((n−1)·2^k) ≥ ⌈log₂(1 + (n−1)·2^k)⌉, where |Uᵢⱼ| < 2^k (k ≥ 0) is
 /// read off the OR of every |Uᵢⱼ| (`u_or`, raw I8F24): |νᵢ| ≤ |g|max·(1 + (n−1)·2^k) (module doc).
+/// bitlen((n−1)·2^k) = bitlen(n−1) + k for n ≥ 2 (n − 1 ≤ 7: two compares) and 1 for n = 1;
+/// k = 0 unless some |Uᵢⱼ| ≥ 1 (no leading-zero count in the usual case).
 #[inline(always)]
 fn nu_headroom(n: usize, u_or: u32) -> i32 {
-    let k = (32 - leading_zeros_u32(u_or) as i32 - U_FRAC_BITS as i32).max(0);
-    let m = (n.saturating_sub(1) as u32) << k;
-    (32 - leading_zeros_u32(m) as i32).max(1)
+    let k = if u_or >> U_FRAC_BITS == 0 {
+        0
+    } else {
+        32 - leading_zeros_u32(u_or) as i32 - U_FRAC_BITS as i32
+    };
+    let m = n.saturating_sub(1);
+    if m == 0 {
+        1
+    } else if m >= 4 {
+        3 + k
+    } else if m >= 2 {
+        2 + k
+    } else {
+        1 + k
+    }
 }
 
 /// The parts of a state the kernel works on, as slices (one kernel body for every N).
