@@ -521,13 +521,6 @@ impl Pos {
         }
     }
 
-    /// `m·2^e` normalised by one leading-zero count (`m` non-zero).
-    #[inline(always)]
-    fn of_normalised(m: u32, e: i32) -> Self {
-        let (m, e) = normalise(m, e);
-        Self { m, e }
-    }
-
     /// |x|·2^e for a non-zero `x` (one leading-zero count).
     #[inline(always)]
     fn of_u32(x: u32, e: i32) -> Self {
@@ -671,11 +664,25 @@ fn columns_mut(u: &mut [i32], n: usize) -> impl Iterator<Item = &mut [i32]> {
 
 /// ν's headroom H = bitlen((n−1)·2^k) ≥ ⌈log₂(1 + (n−1)·2^k)⌉, where |Uᵢⱼ| < 2^k (k ≥ 0) is
 /// read off the OR of every |Uᵢⱼ| (`u_or`, raw I8F24): |νᵢ| ≤ |g|max·(1 + (n−1)·2^k) (module doc).
+/// bitlen((n−1)·2^k) = bitlen(n−1) + k for n ≥ 2 (n − 1 ≤ 7: two compares) and 1 for n = 1;
+/// k = 0 unless some |Uᵢⱼ| ≥ 1 (no leading-zero count in the usual case).
 #[inline(always)]
 fn nu_headroom(n: usize, u_or: u32) -> i32 {
-    let k = (32 - leading_zeros_u32(u_or) as i32 - U_FRAC_BITS as i32).max(0);
-    let m = (n.saturating_sub(1) as u32) << k;
-    (32 - leading_zeros_u32(m) as i32).max(1)
+    let k = if u_or >> U_FRAC_BITS == 0 {
+        0
+    } else {
+        32 - leading_zeros_u32(u_or) as i32 - U_FRAC_BITS as i32
+    };
+    let m = n.saturating_sub(1);
+    if m == 0 {
+        1
+    } else if m >= 4 {
+        3 + k
+    } else if m >= 2 {
+        2 + k
+    } else {
+        1 + k
+    }
 }
 
 /// The parts of a state the kernel works on, as slices (one kernel body for every N).
@@ -809,11 +816,11 @@ fn one_plus_large(m: u32, e: i32) -> (u32, i32) {
 /// g·2^(e_d + 32 − F − lz), μⱼ = mu·2^(e_γ + 32 − F − lz); Gⱼ = g >> (e_ν − e_g) (gⱼ in ν units)
 /// = g >> (`g` + lz − e_d); Mⱼ = mu >> t with t = −(e_ν + e_μ + 24 + 32) = `t` + lz − e_γ
 /// (ΔUᵢⱼ = νᵢ μⱼ in I8F24 = hi32(ν_raw·Mⱼ)); 1 + q = 2^31 + q >> s_q in units 2^−31 with
-/// s_q = −31 − e_q = `q` + (lz − e_d) + (lz − e_γ).
+/// s_q = −31 − e_q = q + (lz − e_d) + (lz − e_γ), q = −127 + 2F = `g` + `t` − 7: s_q is the sum of
+/// the two shifts less 7.
 struct ChainConsts {
     g: i32,
     t: i32,
-    q: i32,
 }
 
 impl ChainConsts {
@@ -821,7 +828,6 @@ impl ChainConsts {
         Self {
             g: e_nu - 32 + F_FRAC_BITS,
             t: -e_nu - 88 + F_FRAC_BITS,
-            q: -127 + 2 * F_FRAC_BITS,
         }
     }
 }
@@ -968,12 +974,31 @@ impl RlsConfig {
             }
             *fj = ((acc + (1 << 31)) >> 32) as i32;
             if *fj != 0 {
-                let bl = 32 - leading_zeros_u32((*fj ^ (*fj >> 31)) as u32) as i32;
-                b_max = b_max.max(dj.exp() + bl + (32 - F_FRAC_BITS));
+                if ARMV6M {
+                    // Only the largest exponent here; the bit lengths below, by one search.
+                    b_max = b_max.max(dj.exp());
+                } else {
+                    let bl = 32 - leading_zeros_u32((*fj ^ (*fj >> 31)) as u32) as i32;
+                    b_max = b_max.max(dj.exp() + bl + (32 - F_FRAC_BITS));
+                }
             }
         }
         if b_max == i32::MIN {
             return Status::LOW_EXCITATION;
+        }
+        if ARMV6M {
+            // maxⱼ(e(dⱼ) + bⱼ) over the columns with f̂ⱼ ≠ 0 from one bit length (Armv6-M has no
+            // CLZ; the search is long): with E = maxⱼ e(dⱼ) there, bitlen(ORⱼ xⱼ >> (E − e(dⱼ)))
+            // = maxⱼ max(bⱼ − (E − e(dⱼ)), 0), and the column at E keeps the maximum ≥ 0: the
+            // same b_max as the per-column lengths.
+            let mut x_or = 0u32;
+            for (fj, dj) in fh.iter().zip(d.iter()) {
+                if *fj != 0 {
+                    let x = (*fj ^ (*fj >> 31)) as u32;
+                    x_or |= x.checked_shr((b_max - dj.exp()) as u32).unwrap_or(0);
+                }
+            }
+            b_max += 32 - leading_zeros_u32(x_or) as i32 + (32 - F_FRAC_BITS);
         }
         let headroom = nu_headroom(n, u_or);
         let e_nu = b_max - 31 + headroom;
@@ -1135,12 +1160,12 @@ impl RlsConfig {
     ) -> (Pos, bool) {
         let (l_m, l_e) = (self.lambda_inv.mant(), self.lambda_inv.exp());
         let cap_exp = self.d_cap_exp;
-        // γ₀ = 1/(λ·4^σ).
-        let mut gamma = Pos {
-            m: l_m,
-            e: l_e - 2 * sigma,
-        };
         let k = ChainConsts::new(self, e_nu);
+        // γ as (γ_m, t_γ) with t_γ = k.t − e_γ, γ₀ = 1/(λ·4^σ): Mⱼ's shift is then t_γ + lz and
+        // the exponents of gⱼ and 1 + qⱼ follow from it and Gⱼ's shift alone (one value fewer
+        // live in the loop; the same numbers).
+        let mut gamma_m = l_m;
+        let mut t_gamma = k.t - (l_e - 2 * sigma);
         // Mⱼ replaces φ̂ⱼ and Gⱼ replaces f̂ⱼ (both dead once read); a column whose ΔU needs the
         // 64-bit path has its [`wide_code`] in `wide` ([`NARROW`]: none).
         let mut capped = false;
@@ -1150,26 +1175,23 @@ impl RlsConfig {
             .zip(m_col.iter_mut())
             .zip(wide.iter_mut())
         {
-            let (d_m, d_e) = (dj.mant(), dj.exp());
+            let (mut d_m, mut d_e) = (dj.mant(), dj.exp());
             let fj = *gj;
             // dⱼ·rⱼ as (d_m, d_e): dⱼ itself when f̂ⱼ = 0 (rⱼ = 1, gⱼ = μⱼ = 0: U's column, γ
             // and ν unchanged, νⱼ = 0).
-            let (mut d_m, mut d_e) = (d_m, d_e);
-            *mj = 0;
             if fj != 0 {
                 let sgn = fj >> 31; // 0 or −1
                 let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
                 let lz = leading_zeros_u32(f_abs);
                 let f_m = f_abs << lz;
-                let a = lz as i32 - d_e;
-                let b = lz as i32 - gamma.e;
                 // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
                 let g = mul_hi_u32(d_m, f_m);
-                let gn = g.checked_shr((k.g + a) as u32).unwrap_or(0) as i32;
+                let s_g = k.g + lz as i32 - d_e;
+                let gn = g.checked_shr(s_g as u32).unwrap_or(0) as i32;
                 *gj = (gn ^ sgn).wrapping_sub(sgn);
                 // Mⱼ, with μⱼ's sign (−fⱼ's).
-                let mu = mul_hi_u32(f_m, gamma.m);
-                let t = k.t + b;
+                let mu = mul_hi_u32(f_m, gamma_m);
+                let t = t_gamma + lz as i32;
                 let m_mu = if t >= 1 {
                     mu.checked_shr(t as u32).unwrap_or(0) as i32
                 } else {
@@ -1179,23 +1201,33 @@ impl RlsConfig {
                     (mu >> 1) as i32
                 };
                 *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
-                // rⱼ = 1/(1 + qⱼ), then γ.
+                // rⱼ = 1/(1 + qⱼ), then γ. s_q = k.q + (lz − e_d) + (lz − e_γ) = s_g + t − 7
+                // (k.q − k.g − k.t = −7).
                 let q = mul_hi_u32(g, mu);
-                let s_q = k.q + a + b;
+                let s_q = s_g + t - 7;
                 let (w, w_e) = if s_q >= 1 {
                     // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
                     ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -31)
                 } else {
                     one_plus_large(q, -31 - s_q)
                 };
-                // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e).
-                let (x2, r_e) = (recip_q61(w) << 1, -62 - w_e);
-                gamma = Pos::of_normalised(mul_hi_u32(gamma.m, x2), gamma.e + r_e + 32);
-                (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e + r_e + 32);
+                // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e); γ's exponent gains r_e + 32 =
+                // −30 − w_e, less its normalisation.
+                let x2 = recip_q61(w) << 1;
+                let (m, z) = normalise(mul_hi_u32(gamma_m, x2), 0);
+                gamma_m = m;
+                t_gamma += 30 + w_e - z;
+                (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e - 30 - w_e);
+            } else {
+                *mj = 0;
             }
             let (m, e) = normalise(mul_hi_u32(d_m, l_m), d_e + l_e + 32);
             *dj = store_d(m, e, cap_exp, &mut capped);
         }
+        let gamma = Pos {
+            m: gamma_m,
+            e: k.t - t_gamma,
+        };
         (gamma, capped)
     }
 
