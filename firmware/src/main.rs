@@ -66,7 +66,10 @@ mod target {
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
-    use sledid::servo::{Calibrated, CalibrationRecord, Posted, ServoFlags, SledServo, StopReason};
+    use sledid::servo::{
+        Calibrated, CalibratedModel, CalibrationRecord, Posted, Refusal, ServoFlags, SledServo,
+        StopReason, Ticket,
+    };
 
     use sledid_firmware::health::Queue;
     use sledid_firmware::timing::Timing;
@@ -359,13 +362,17 @@ mod target {
         config.redesign(posted)
     }
 
-    /// The background's work on calibration's record (out of line, as [`redesign`]).
+    /// The background's fit of calibration's record, when the loop has posted it: the record is
+    /// copied into this frame (the loop's state keeps the only other copy) and is gone from the
+    /// stack when this returns, before [`calibration_job`] places the first design. `None`
+    /// without a record; else the fit's ticket and answer.
     #[inline(never)]
-    fn calibrate(
-        config: &SledServo,
-        posted: &Posted<CalibrationRecord>,
-    ) -> Calibrated<RedesignResult> {
-        config.calibrate(&posted.job)
+    fn fit_job(config: &SledServo) -> Option<(Ticket, Result<CalibratedModel, Refusal>)> {
+        // Copied straight into this frame's record, not returned through the critical section's
+        // closure: one copy of the record on the stack.
+        let mut record = CalibrationRecord::EMPTY;
+        let ticket = with_loop(|l| l.ticker.take_calibration_job_into(&mut record)).flatten()?;
+        Some((ticket, config.fit_calibration(&record)))
     }
 
     /// The background's health work: the queued samples through the estimator (out of line, as
@@ -385,28 +392,37 @@ mod target {
         health.adopt(consumer, answer);
     }
 
-    /// Power-on calibration's record, when the loop has posted it: the fit, its answer handed
-    /// back into the loop's state and, accepted, made the friction health's reference. `None`
-    /// without a record; else whether the hand-over refused the answer (its due sample had
-    /// passed). Out of line, as [`redesign_job`]: the record and the answer (≈ 1.3 KB) are on the
-    /// stack only while this runs, not under every redesign.
+    /// Power-on calibration's record, when the loop has posted it: the fit ([`fit_job`]), then
+    /// the first design and the hand-over ([`answer_job`]). `None` without a record; else whether
+    /// the hand-over refused the answer (its due sample had passed).
     #[inline(never)]
     fn calibration_job(
         config: &SledServo,
         health: &mut HealthWatch,
         consumer: &mut HealthConsumer<'static>,
     ) -> Option<bool> {
-        // Taken into this frame's slot, not returned through the critical section's closure: one
-        // copy of the record on the stack instead of two.
-        let mut slot = None;
-        with_loop(|l| slot = l.ticker.take_calibration_job());
-        let posted = slot.as_ref()?;
-        let answer = calibrate(config, posted);
-        let accepted = with_loop(|l| l.ticker.deliver_calibration(posted.ticket, answer));
+        let (ticket, fitted) = fit_job(config)?;
+        Some(answer_job(config, ticket, fitted, health, consumer))
+    }
+
+    /// The fit's answer: θ and the first design placed from it, handed back into the loop's
+    /// state and, accepted, made the friction health's reference; whether the hand-over refused
+    /// it. Out of line, as [`redesign_job`]: the answer is on the stack only while this runs (not
+    /// under the fit, nor under every redesign).
+    #[inline(never)]
+    fn answer_job(
+        config: &SledServo,
+        ticket: Ticket,
+        fitted: Result<CalibratedModel, Refusal>,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> bool {
+        let answer = config.calibrated(fitted);
+        let accepted = with_loop(|l| l.ticker.deliver_calibration(ticket, answer));
         if accepted == Some(true) {
             health_adopt(health, consumer, &answer);
         }
-        Some(accepted == Some(false))
+        accepted == Some(false)
     }
 
     /// The next redesign job, when the loop has posted one: the redesign, held back until the

@@ -198,6 +198,11 @@ impl<C: Borrow<SledServo>> Ticker<C> {
         self.state.take_calibration_job()
     }
 
+    /// [`Self::take_calibration_job`] copied straight into `record`: the ticket, or `None`.
+    pub fn take_calibration_job_into(&mut self, record: &mut CalibrationRecord) -> Option<Ticket> {
+        self.state.take_calibration_job_into(record)
+    }
+
     /// The background's answer to calibration's record: false when its due sample has passed
     /// (the step has flagged the miss and posted the record again).
     pub fn deliver_calibration(

@@ -105,13 +105,17 @@ impl<J: Copy, D: Copy> Handover<J, D> {
         true
     }
 
-    /// The loop's side, before the step of sample `k`: the result due now, if any.
-    pub fn due(&mut self, k: u32) -> HandoverEvent<D> {
+    /// The loop's side, before the step of sample `k`: the result due now, if any — lent from
+    /// its slot, not copied out (on a target the loop adopts it from there, with no copy of a
+    /// design on the interrupt's stack). It stays in the slot until the next [`Self::post`] and
+    /// is adopted once: nothing is in flight any more, so a later sample is [`HandoverEvent::Idle`]
+    /// and a late [`Self::deliver`] is refused.
+    pub fn due(&mut self, k: u32) -> HandoverEvent<&D> {
         match self.in_flight {
             Some(t) if t.due == k => {
                 self.in_flight = None;
                 self.job = None;
-                match self.result.take() {
+                match &self.result {
                     Some(d) => HandoverEvent::Adopt(d),
                     None => HandoverEvent::Missed,
                 }
@@ -135,7 +139,7 @@ mod tests {
         assert_eq!(h.take_job(), None, "taken once");
         assert!(h.deliver(posted.ticket, 70));
         assert_eq!(h.due(9), HandoverEvent::Idle, "not before k + L");
-        assert_eq!(h.due(10), HandoverEvent::Adopt(70));
+        assert_eq!(h.due(10), HandoverEvent::Adopt(&70));
         assert_eq!(h.due(10), HandoverEvent::Idle, "adopted once");
         // A miss: nothing delivered by the due sample; a late delivery is refused.
         assert!(h.post(9, 20));

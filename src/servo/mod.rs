@@ -251,8 +251,10 @@ pub struct ServoState<C: Controller, I: Identifier> {
     in_fallback: bool,
     /// Power-on calibration's progress (finished from the start without one).
     calibration: CalibrationState,
-    /// Calibration's record to the background and its answer back.
-    fit: Handover<CalibrationRecord, Calibrated<C::Design>>,
+    /// Calibration's record to the background and its answer back. The job is only the ticket:
+    /// the record stays in [`Self::calibration`] (the experiment leaves it alone while it waits
+    /// for the fit) and is read from there when the background takes the job — not held twice.
+    fit: Handover<(), Calibrated<C::Design>>,
     /// What calibration found, once adopted.
     calibrated: Option<CalibratedModel>,
     /// Calibrations adopted since power-on.
@@ -514,7 +516,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// The background's whole turn at once (the host's, between two samples): takes the posted
     /// job, if any, redesigns and delivers. Returns the design delivered.
     pub fn run_background(&self, state: &mut ServoState<C, I>) -> Option<C::Design> {
-        if let Some(posted) = state.fit.take_job() {
+        if let Some(posted) = state.take_calibration_job() {
             let answer = self.calibrate(&posted.job);
             state.fit.deliver(posted.ticket, answer);
         }
@@ -526,12 +528,26 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
 
     /// The background's work on calibration's record: the fit ([`calibration::fit()`]), θ, and the
     /// controller's design placed from it (a model the controller refuses is refused as
-    /// [`Refusal::Gain`]). Outside the sample interrupt.
+    /// [`Refusal::Gain`]). Outside the sample interrupt. [`Self::fit_calibration`], then
+    /// [`Self::calibrated`].
     pub fn calibrate(&self, record: &CalibrationRecord) -> Calibrated<C::Design> {
+        self.calibrated(self.fit_calibration(record))
+    }
+
+    /// The first half of [`Self::calibrate`]: the fit of calibration's record alone. A target
+    /// runs it in a frame of its own, so that the record is off the stack before the design
+    /// below is placed.
+    pub fn fit_calibration(&self, record: &CalibrationRecord) -> Result<CalibratedModel, Refusal> {
         let Some(config) = &self.calibration else {
-            return Calibrated::Refused(Refusal::Fit);
+            return Err(Refusal::Fit);
         };
-        let model = match calibration::fit(config, record) {
+        calibration::fit(config, record)
+    }
+
+    /// The second half of [`Self::calibrate`]: from the fit's answer, θ and the controller's
+    /// design placed from it (a model the controller refuses is refused as [`Refusal::Gain`]).
+    pub fn calibrated(&self, fitted: Result<CalibratedModel, Refusal>) -> Calibrated<C::Design> {
+        let model = match fitted {
             Ok(m) => m,
             Err(r) => return Calibrated::Refused(r),
         };
@@ -591,7 +607,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         measured: Option<PositionI48F16>,
         u_applied: Option<SignalI16F16>,
     ) -> ServoOutput<I::Output> {
-        let mut servo = ServoFlags::NONE;
         if let Some(reason) = state.safety.stopped() {
             // Latched: the drive stays cut, nothing steps until the reset.
             state.k = state.k.wrapping_add(1);
@@ -611,6 +626,23 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         {
             return self.calibration_step(cal, state, measured, u_applied);
         }
+        self.running_step(state, r, y, measured, u_applied)
+    }
+
+    /// A sample once calibration is over (or without one): the hand-over, the watch, the
+    /// controller, the safety layer and the identifier. Out of line: its frame (the controller's
+    /// step inlined) is not on the stack under a sample of calibration — the interrupt that
+    /// lands on top of the background's fit and first design.
+    #[inline(never)]
+    fn running_step(
+        &self,
+        state: &mut ServoState<C, I>,
+        r: PositionI48F16,
+        y: PositionI48F16,
+        measured: Option<PositionI48F16>,
+        u_applied: Option<SignalI16F16>,
+    ) -> ServoOutput<I::Output> {
+        let mut servo = ServoFlags::NONE;
         let mut report = state.report;
         if measured.is_none() {
             report
@@ -620,7 +652,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         match state.handover.due(state.k) {
             HandoverEvent::Idle => {}
             HandoverEvent::Adopt(d) => {
-                self.controller.adopt(&mut state.controller, &d);
+                self.controller.adopt(&mut state.controller, d);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);
             }
             HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
@@ -704,22 +736,22 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 theta,
                 design,
             }) => {
-                self.identifier.seed(&mut state.identifier, &theta);
+                self.identifier.seed(&mut state.identifier, theta);
                 state.controller = self.controller.new_state();
-                self.controller.adopt(&mut state.controller, &design);
+                self.controller.adopt(&mut state.controller, design);
                 state.calibration.finish();
-                state.watch = state.watch.adopt(&model);
+                state.watch = state.watch.adopt(model);
                 // The stall rule at 3× the breakaway measured on this sled (the configuration's
                 // is set for every sled the prior may meet: 24× its Coulomb level).
                 let [bk_pos, bk_neg] = state.calibration.record().breakaway_i16f16;
                 state
                     .safety
                     .set_stall_drive(&self.safety, bk_pos.max(bk_neg).saturating_mul(3));
-                state.calibrated = Some(model);
+                state.calibrated = Some(*model);
                 state.calibrations = state.calibrations.saturating_add(1);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);
             }
-            HandoverEvent::Adopt(Calibrated::Refused(r)) => {
+            HandoverEvent::Adopt(&Calibrated::Refused(r)) => {
                 state.calibration.refuse(r);
                 state.safety.latch(StopReason::Calibration(r));
             }
@@ -781,10 +813,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
 /// Posts calibration's record to the background fit, due `cal.latency()` samples from now (on
 /// the record's completion, and again when the fit missed its sample).
 fn post_fit<C: Controller, I: Identifier>(cal: &CalibrationConfig, state: &mut ServoState<C, I>) {
-    state.fit.post(
-        *state.calibration.record(),
-        state.k.wrapping_add(cal.latency()),
-    );
+    state.fit.post((), state.k.wrapping_add(cal.latency()));
 }
 
 impl<C: Controller, I: Identifier> ServoState<C, I> {
@@ -839,9 +868,22 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
         self.calibrated.as_ref()
     }
 
-    /// The background's side of calibration's hand-over: the record, once.
+    /// The background's side of calibration's hand-over: the record, once (a copy of the one in
+    /// [`Self::calibration`], complete and unchanged while the fit is in flight).
     pub fn take_calibration_job(&mut self) -> Option<Posted<CalibrationRecord>> {
-        self.fit.take_job()
+        let ticket = self.fit.take_job()?.ticket;
+        Some(Posted {
+            ticket,
+            job: *self.calibration.record(),
+        })
+    }
+
+    /// [`Self::take_calibration_job`] into `record` (a copy straight from the state, no
+    /// temporary on the way): the ticket, or `None` (and `record` untouched) without a job.
+    pub fn take_calibration_job_into(&mut self, record: &mut CalibrationRecord) -> Option<Ticket> {
+        let ticket = self.fit.take_job()?.ticket;
+        *record = *self.calibration.record();
+        Some(ticket)
     }
 
     /// The background's side of calibration's hand-over: the answer for `ticket`.

@@ -67,7 +67,8 @@ pub struct CalibrationRecord {
 }
 
 impl CalibrationRecord {
-    const EMPTY: Self = Self {
+    /// Nothing recorded.
+    pub const EMPTY: Self = Self {
         segments: [Segment::EMPTY; SEGMENTS],
         breakaway_i16f16: [0; 2],
         samples: 0,
