@@ -660,9 +660,13 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         if let Some(cal) = &self.calibration
             && state.watch.step(r.raw(), y.raw())
         {
-            // The sled no longer follows the calibrated model: calibrate again from here.
+            // The sled no longer follows the calibrated model: calibrate again from here. A
+            // redesign in flight is dropped: its due sample would pass during the experiment,
+            // where the hand-over is not stepped, and it would block every later redesign (its
+            // late delivery is refused).
             state.calibration = CalibrationState::new();
             state.fit = Handover::new();
+            state.handover = Handover::new();
             return self.calibration_step(cal, state, measured, u_applied);
         }
         servo.set_if(ServoFlags::SEEK_ERROR, state.watch.seek_error());
