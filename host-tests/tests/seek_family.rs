@@ -169,7 +169,7 @@ fn calibrated_seeks_on_the_plant_family() {
         // track after settling (the reading left ±1 quantum and came back before the window's
         // last 10 ms; `servo::calibration::watch`), or hunting after settling (four drive
         // pulses past the calibrated breakaway level, each the other way) — measured 62 / 65 of
-        // 10,000 since the hunting rule (58 / 64 before it: the rule flags 2 of the wider
+        // 10,000 since the hunting rule (seed 2: 66; 58 / 64 / 58 before it: the rule flags 2 of the wider
         // family's 9 failing plants that nothing flagged, seeds 1 / 7; at three pulses 84 / 76;
         // seeds 2–6 before it: 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0
         // (39 / 35 / 30 at p 0.15 before it, 44 / 35 / 29 with the learner at p 0.15 — whose
