@@ -219,12 +219,8 @@ impl CalibrationWatch {
             return;
         }
         let [pos, neg] = self.breakaway_i16f16;
-        let strong = if u_i16f16 >= 0 {
-            u_i16f16 > pos
-        } else {
-            u_i16f16.unsigned_abs() > neg.unsigned_abs()
-        };
-        let direction = if u_i16f16 < 0 { -1 } else { 1 };
+        let (level, direction) = if u_i16f16 < 0 { (neg, -1) } else { (pos, 1) };
+        let strong = u_i16f16.unsigned_abs() > level.unsigned_abs();
         if strong && !self.strong && direction != self.last_pulse {
             self.pulses = self.pulses.saturating_add(1);
             self.last_pulse = direction;
