@@ -3,7 +3,7 @@
 //! ([`words`]), the processor-in-the-loop (PIL) link's frames ([`link`]), the interrupt's body and
 //! the result line ([`ticker`]), the friction health beside the servo ([`health`]), the bench image's recorded run ([`recording`]) and, on target, the
 //! interrupt's clocks (`timing`). The QEMU image (`src/main.rs`, binary `sledid-fw`), the board
-//! image (`boards/stm32f411`) and the host (`host-tests/src/pil`, `host-tests/tests/firmware_qemu.rs`)
+//! image (`boards/stm32f411`) and the host (`host-tests/src/pil`, `host-tests/tests/integration/firmware_qemu.rs`)
 //! depend on this crate; it is the firmware's, not part of the identification library (`sledid`).
 //!
 //! # The loop, per sample period (processor in the loop)

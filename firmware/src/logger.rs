@@ -1,6 +1,6 @@
 //! The QEMU image's defmt logger: every frame to the host's stdout through semihosting, as
 //! `defmt-semihosting` writes it (same bytes: one rzCOBS-encoded frame per `defmt::println!`,
-//! decoded by `defmt-print` on the host), without a panic path.
+//! decoded by `defmt-decoder` on the host), without a panic path.
 //!
 //! `defmt-semihosting` writes with `semihosting::io::Write::write_all`, whose `&buf[n..]` is a
 //! slice-index panic, and panics on a logger taken reentrantly; a panic whose message formats a

@@ -846,7 +846,7 @@ fn main() {
         Err(e) => {
             eprintln!(
                 "sledid-fw: the configuration words do not decode: {e}; regenerate them \
-                 (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words)"
+                 (SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test integration firmware_qemu::loop_words)"
             );
             std::process::exit(1);
         }

@@ -1,46 +1,8 @@
 //! The recording reader on arbitrary file contents: every outcome is a sample or a typed error (and
-//! its message), never a panic. The first byte picks the mapping and header mode; the rest is the file.
+//! its message), never a panic. The body is `sledid_host::fuzz::recording::target`, which the test
+//! command also replays.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use sledid_host::recording::{HeaderMode, ReaderOptions, RecordingReader};
-use std::io::Write;
 
-fuzz_target!(|data: &[u8]| {
-    let Some((&mode, body)) = data.split_first() else { return };
-    // tmpfs when available: the reader takes a path, and a disk file per execution is the bottleneck.
-    let dir = if std::path::Path::new("/dev/shm").is_dir() { std::path::PathBuf::from("/dev/shm") } else { std::env::temp_dir() };
-    let path = dir.join(format!("sledid-fuzz-recording-{}.csv", std::process::id()));
-    let Ok(mut f) = std::fs::File::create(&path) else { return };
-    if f.write_all(body).is_err() {
-        return;
-    }
-    drop(f);
-    let mapping = match mode % 3 {
-        0 => "u=0,y=1",
-        1 => "u=0,y=1,t=2",
-        _ => "u=a,y=b,r=c",
-    };
-    let Ok(mapping) = mapping.parse() else { return };
-    let mut opts = ReaderOptions::new(mapping);
-    opts.header = match (mode / 3) % 3 {
-        0 => HeaderMode::Auto,
-        1 => HeaderMode::Present,
-        _ => HeaderMode::Absent,
-    };
-    if mode & 0x80 != 0 {
-        opts.ts_s = Some(1e-3);
-    }
-    // Every error is formatted too: its message quotes the file's text as a bounded excerpt.
-    match RecordingReader::open(&path, &opts) {
-        Ok(reader) => {
-            for item in reader.take(100_000) {
-                if let Err(error) = item {
-                    let _ = error.to_string();
-                    break;
-                }
-            }
-        }
-        Err(error) => drop(error.to_string()),
-    }
-});
+fuzz_target!(|data: &[u8]| sledid_host::fuzz::recording::target(data));

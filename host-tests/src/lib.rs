@@ -7,6 +7,7 @@ pub mod control;
 pub mod excitation;
 pub mod faults;
 pub mod figure;
+pub mod fuzz;
 pub mod pacing;
 pub mod pil;
 pub mod plants;

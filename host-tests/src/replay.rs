@@ -15,7 +15,7 @@
 //! converts into units in which they are fixed targets, and the summary and the trace map θ, the
 //! signals and the simulation RMS back ([`crate::reference::units`]). The float64 twin runs on the
 //! same samples. The same recording in any unit replays the same samples, hence the same model
-//! (`tests/nonlinear_units.rs`).
+//! (`tests/integration/nonlinear_units.rs`).
 //!
 //! # Parts
 //! [`replay`] picks the model and its float64 twin (`model.rs`), whose per-sample loop
@@ -77,7 +77,7 @@ pub enum BadSample {
 /// The covariance's trace bound the CLI gives a nonlinear model by default: in normalised units θ
 /// is of order 1, and a bound of 0.3 keeps a neuron's unidentifiable directions (w near 0, a bias
 /// in saturation) from wandering — the wandering is what made the float64 twin itself ill-posed.
-/// Measured over the 165 cases of `tests/nonlinear_units.rs` (doc there).
+/// Measured over the 165 cases of `tests/integration/nonlinear_units.rs` (doc there).
 pub const NONLINEAR_TRACE_LIMIT: f64 = 0.3;
 
 /// Whether the boundary normalises the units ([`sledid::Normalisation`], module doc).

@@ -64,7 +64,7 @@
 //!   inputs: |u − u_f64| ≤ 2⁻¹⁷ u_fs (half an output LSB) + the gains' 2⁻³¹ relative rounding + the
 //!   filters' 2⁻¹⁷ quanta per sample, asserted < 8·10⁻⁶ u_fs on the twin's baseline (with and
 //!   without the prefilter) and on EMPS (`fixed_point_matches_float64_on_twin_and_emps` in
-//!   `host-tests/tests/control.rs`).
+//!   `host-tests/tests/integration/control.rs`).
 //! - In the twin's loop the baseline configuration follows the f64 law with its output rounded to
 //!   the I16F16 grid sample for sample, and against the unrounded f64 baseline its seeks settle
 //!   within one sample period and end in the ±1-quantum limit cycle

@@ -535,7 +535,7 @@ mod tests {
     #[test]
     fn observer_and_rest_settings_follow_the_model_and_designs_are_checked() {
         // The closed-loop poles themselves are found independently of these formulas in
-        // `host-tests/tests/placement_poles.rs`; here the observer's gain (pole (1 − l)·a ≤ p_o,
+        // `host-tests/tests/integration/placement_poles.rs`; here the observer's gain (pole (1 − l)·a ≤ p_o,
         // l ≥ l_min) and the rest settings.
         let d = PlacementDesign::default();
         for (a, l) in [(0.83f32, 1.0 - 0.5 / 0.83f64), (0.3, 0.25), (0.05, 0.25)] {

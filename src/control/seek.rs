@@ -109,7 +109,7 @@ impl Default for TimeOptimalDesign {
         // may be several times off). A model known to be the sled's own: [`Self::TRUSTED`].
         //
         // A calibrated model (within a few % of the sled's, up to 17 % on strongly damped sleds:
-        // `tests/calibration.rs`), held: α 0.7, p 0.15 (`control-family --passes seek
+        // `tests/integration/calibration.rs`), held: α 0.7, p 0.15 (`control-family --passes seek
         // --calibrate`, seeds 1 / 7: access / bound median 1.09 / 1.08, p95 2.00 / 1.75, clean
         // 98.0 / 97.0 %; p = 0 gives 1.00 / 1.00, 1.50 / 1.33 and 96.0 / 96.5 % with 4 pulses;
         // (0.6, 0.3) gives 1.25 / 1.23, 2.50 / 2.50 and 97.0 / 98.5 %).

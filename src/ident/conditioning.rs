@@ -8,7 +8,7 @@
 //! - [`Conditioning::DifferencedOutput`]: `Δy` against `u` — velocity against drive, the model of an
 //!   integrating plant (a sled, a positioning axis) without its integrator. Prefer it over
 //!   `Differenced` there: differencing a slowly varying drive makes `Δu` a few LSBs of I16F16, and
-//!   the estimate then loses its precision (measured on EMPS, see `host-tests/tests/emps_vs_f64.rs`);
+//!   the estimate then loses its precision (measured on EMPS, see `host-tests/tests/integration/emps_vs_f64.rs`);
 //! - [`Conditioning::None`]: y as is, for signals already centred by the user (e.g. Silverbox volts).
 //!
 //! Differences are formed in the wide [`PositionI48F16`] format and narrowed to I16F16 afterwards,

@@ -52,7 +52,7 @@
 //! # Accuracy
 //! Against exact (f64) filtering of the same I16F16 input with the quantised coefficients: error
 //! ≤ ½ LSB (2⁻¹⁷), the final rounding. Against the unquantised f64 design: in addition ≤ 12·2⁻³²·|x|
-//! (coefficient rounding). Asserted in `host-tests/tests/neuron_decimate.rs`:
+//! (coefficient rounding). Asserted in `host-tests/tests/integration/neuron_decimate.rs`:
 //! `decimator_impulse_response_equals_the_reference`, `decimator_sine_sweep_meets_the_figures`
 //! (ripple and attenuation measured by sine sweeps through this filter), and
 //! `decimator_on_silverbox_matches_float64` (RMS and max error on a real recording).

@@ -94,7 +94,7 @@
 //! untouched (no forgetting without information, so no windup).
 //!
 //! # Accuracy
-//! Against a float64 UD update on the same quantised data: `host-tests/tests/rls_vs_f64.rs`
+//! Against a float64 UD update on the same quantised data: `host-tests/tests/integration/rls_vs_f64.rs`
 //! (simulated closed-loop plants), `emps_vs_f64.rs` (the EMPS recording) and `unit_sweep.rs`
 //! (position units 2⁻¹⁰…2¹⁰ × nominal and each recording's own quantum, EMPS ARX(1,1)/(2,2),
 //! Silverbox and twin records: θ within 1·10⁻³ of float64). Measured figures and cost:
@@ -113,7 +113,7 @@ use crate::num::wide::{
 use crate::words::{WordReader, WordWriter, Words};
 
 /// Fraction bits of the U factor (I8F24: |Uᵢⱼ| < 128; the nonlinear models' regressors need more
-/// than I4F28's 8, measured: `tests/nonlinear.rs`, `tests/nonlinear_units.rs`).
+/// than I4F28's 8, measured: `tests/integration/nonlinear.rs`, `tests/integration/nonlinear_units.rs`).
 pub const U_FRAC_BITS: u32 = 24;
 /// Fraction bits of the normalised regressor φ̂ (I3F29).
 const PHI_FRAC_BITS: u32 = 29;

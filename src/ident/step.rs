@@ -6,7 +6,7 @@
 //! [`crate::ident::linear`]; or one of the paper's nonlinear models, [`crate::ident::nonlinear`] — anything that is
 //! an [`Estimator`]), and report ŷ, ε, θ and the status flags. Never panics, never returns an error.
 //!
-//! # Degradation on bad input (documented and tested in `host-tests/tests/faults.rs`)
+//! # Degradation on bad input (documented and tested in `host-tests/tests/integration/faults.rs`)
 //! - A sample the boundary cannot convert (NaN, ±∞, out of range, a missing reading) is passed as
 //!   [`reject`]: θ and P are held, the output carries [`Status::INPUT_REJECTED`], and the
 //!   conditioning re-primes (differences never span the gap: the next sample is a

@@ -76,7 +76,7 @@ pub struct Sample {
 
 /// The normalised position range: |y_n| ≤ Y_TARGET. Sized for the nonlinear models' formats
 /// (module doc of `crate::ident::nonlinear`, I16F16 signals and I12F20 weights of about 1/range);
-/// the accuracy it gives is measured in `host-tests/tests/nonlinear_units.rs`.
+/// the accuracy it gives is measured in `host-tests/tests/integration/nonlinear_units.rs`.
 pub const Y_TARGET: f64 = 32.0;
 /// The normalised drive range: |u_n| ≤ U_TARGET.
 pub const U_TARGET: f64 = 1.0;

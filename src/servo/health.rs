@@ -34,7 +34,7 @@
 //! c_ref the calibration's mean Coulomb level (wear and contamination raise friction). One-sided
 //! on purpose: on healthy identifiable sleds ĉ is biased low (typically by 0.000–0.005 of full
 //! scale, once by 0.18; equation error on quantised closed-loop data) and never measured high by
-//! more than 0.0003 (`host-tests/tests/health.rs`, 48 plants), so a fall cannot be told from the
+//! more than 0.0003 (`host-tests/tests/integration/health.rs`, 48 plants), so a fall cannot be told from the
 //! bias. A sled whose calibrated pole is below `min_pole` per Ts reaches its terminal speed
 //! within a sample: its seeks cruise at full drive and friction cannot be told from the gain
 //! (measured: ĉ off by up to 0.05 of full scale), so its verdict is
@@ -66,7 +66,7 @@
 //! Against the float64 reference (`host-tests/src/reference/health.rs`) on twin and recorded data:
 //! ĉ within 10⁻⁵ of full scale on the twin (measured 1.0·10⁻⁶) and 10⁻⁴ on the EMPS recording
 //! (measured 2.1·10⁻⁵), θ within 10⁻⁴ / 2·10⁻³, with the same update decisions; asserted in
-//! `host-tests/tests/health.rs` (`fixed_point_tracks_float64_on_twin`, `…_on_emps`). Cost per call
+//! `host-tests/tests/integration/health.rs` (`fixed_point_tracks_float64_on_twin`, `…_on_emps`). Cost per call
 //! on target: `bench_health_feed`, `bench_health_step` in BENCHMARKS.md.
 
 #![deny(clippy::float_arithmetic)]
@@ -121,7 +121,7 @@ pub struct HealthDesign {
 }
 
 impl Default for HealthDesign {
-    /// The settings measured in `host-tests/tests/health.rs` (module doc there).
+    /// The settings measured in `host-tests/tests/integration/health.rs` (module doc there).
     fn default() -> Self {
         Self {
             rls: RlsDesign {

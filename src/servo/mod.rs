@@ -411,7 +411,7 @@ impl ServoDesign {
 /// A buffer size that holds the words of any [`ServoDesign`]: at most 279 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings, safety
 /// layer and power-on calibration, the controller with both maps and time-optimal seeks;
-/// `host-tests/tests/sled_loop.rs` counts them).
+/// `host-tests/tests/integration/sled_loop.rs` counts them).
 pub const SERVO_WORDS_MAX: usize = 279;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {

@@ -19,8 +19,8 @@
 //! `validate` its `…Design::build` runs after quantising, so the target refuses exactly what the
 //! host's build would have refused, with the same [`ConfigError`] naming the parameter. An
 //! encoding error gives [`ConfigError::Words`] with the word's index in the frame; decoding never
-//! panics. Tested here (primitives), in `host-tests/tests/sled_loop.rs` (a design with every
-//! optional part round-trips) and in `host-tests/tests/firmware_qemu.rs` (the firmware's words are
+//! panics. Tested here (primitives), in `host-tests/tests/integration/sled_loop.rs` (a design with every
+//! optional part round-trips) and in `host-tests/tests/integration/firmware_qemu.rs` (the firmware's words are
 //! up to date; every truncation, extension and single-bit flip is refused; re-sealed invalid
 //! values are refused by the build's checks; never a panic).
 //!

@@ -1,15 +1,17 @@
 //! `cargo xtask <task>`: the project's checks as one command each.
 //!
 //! - `setup`: installs what a fresh machine with only rustup lacks (the thumb targets, rustfmt and
-//!   clippy, a nightly toolchain for cargo-fuzz, `qemu-system-arm`, `defmt-print`); `test` runs it
-//!   first, so the README's test command is all a newcomer runs.
+//!   clippy, `qemu-system-arm`); `test` runs it first, so the README's test command
+//!   is all a newcomer runs.
 //! - `test`: formatting, clippy (host and both thumb targets), library builds for
 //!   `thumbv7em-none-eabihf` and `thumbv6m-none-eabi`, every host test (overflow checks on; the
 //!   firmware's PIL runs under QEMU among them), the board images (`boards/*`: formatting and
-//!   clippy, which builds them), the library's docs with warnings denied, and a short fuzz run of
-//!   every target.
+//!   clippy, which builds them) and the library's docs with warnings denied. The fuzz targets'
+//!   bodies run among the host tests on their committed corpus and seeded mutations of it.
+//!   Prints each command's wall time at the end.
 //! - `fmt`: format the workspace.
-//! - `fuzz [RUNS]`: every cargo-fuzz target for RUNS executions (default 10⁷) on its committed corpus.
+//! - `fuzz [RUNS]`: every cargo-fuzz target for RUNS executions (default 10⁷) on its committed corpus
+//!   (installs a nightly toolchain and cargo-fuzz when missing).
 //! - `pil [ARGS]`: the firmware under QEMU in the loop with the sled twin on both cores, checked
 //!   against the host (`cargo run --release -p sledid-host -- pil ARGS`, e.g. `--seeks 50`).
 //! - `cost`: build the bench image for Cortex-M4F and M0+ and count instructions / estimate cycles
@@ -19,6 +21,38 @@
 //!   shipped images' flash and RAM (`cost firmware` for only that part).
 
 use std::process::{Command, ExitCode};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// Every command a task ran and its wall time, printed at the end (where CI's minutes go).
+static TIMES: Mutex<Vec<(String, Duration)>> = Mutex::new(Vec::new());
+
+/// Runs `f`, recording its wall time under `label`.
+fn timed(label: String, f: impl FnOnce() -> bool) -> bool {
+    let start = Instant::now();
+    let ok = f();
+    if let Ok(mut t) = TIMES.lock() {
+        t.push((label, start.elapsed()));
+    }
+    ok
+}
+
+/// The recorded commands, slowest first, with the total.
+fn print_times() {
+    let Ok(mut t) = TIMES.lock() else { return };
+    if t.is_empty() {
+        return;
+    }
+    let total: Duration = t.iter().map(|(_, d)| *d).sum();
+    t.sort_by_key(|e| std::cmp::Reverse(e.1));
+    println!(
+        "\nxtask: wall time per command (total {:.0} s)",
+        total.as_secs_f64()
+    );
+    for (label, d) in t.iter() {
+        println!("{:>7.1} s  {label}", d.as_secs_f64());
+    }
+}
 
 const THUMB_TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 
@@ -32,41 +66,50 @@ const BOARDS: [&str; 1] = ["boards/stm32f411"];
 
 /// `cargo args…` in `dir`.
 fn cargo_in(dir: &str, args: &[&str]) -> bool {
-    println!("\n==> (cd {dir} && cargo {})", args.join(" "));
+    let label = format!("(cd {dir} && cargo {})", args.join(" "));
+    println!("\n==> {label}");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    match Command::new(cargo).current_dir(dir).args(args).status() {
-        Ok(s) => s.success(),
-        Err(e) => {
-            eprintln!("xtask: cannot run cargo in {dir}: {e}");
-            false
+    timed(label, || {
+        match Command::new(cargo).current_dir(dir).args(args).status() {
+            Ok(s) => s.success(),
+            Err(e) => {
+                eprintln!("xtask: cannot run cargo in {dir}: {e}");
+                false
+            }
         }
-    }
+    })
 }
 
 /// `cargo args…` with extra environment variables.
 fn cargo_env(args: &[&str], env: &[(&str, &str)]) -> bool {
-    println!("\n==> cargo {}", args.join(" "));
+    let label = format!("cargo {}", args.join(" "));
+    println!("\n==> {label}");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    match Command::new(cargo)
-        .args(args)
-        .envs(env.iter().copied())
-        .status()
-    {
-        Ok(s) => s.success(),
-        Err(e) => {
-            eprintln!("xtask: cannot run cargo: {e}");
-            false
+    timed(label, || {
+        match Command::new(cargo)
+            .args(args)
+            .envs(env.iter().copied())
+            .status()
+        {
+            Ok(s) => s.success(),
+            Err(e) => {
+                eprintln!("xtask: cannot run cargo: {e}");
+                false
+            }
         }
-    }
+    })
 }
 
 /// Runs `program args…`, printing it first; true on success.
 fn run(program: &str, args: &[&str]) -> bool {
-    println!("\n==> {program} {}", args.join(" "));
-    Command::new(program)
-        .args(args)
-        .status()
-        .is_ok_and(|s| s.success())
+    let label = format!("{program} {}", args.join(" "));
+    println!("\n==> {label}");
+    timed(label, || {
+        Command::new(program)
+            .args(args)
+            .status()
+            .is_ok_and(|s| s.success())
+    })
 }
 
 /// stdout of `program args…`, or empty when it cannot run.
@@ -88,8 +131,6 @@ fn have(program: &str) -> bool {
 
 /// The Debian package that provides `qemu-system-arm`.
 const QEMU_PACKAGE: &str = "qemu-system-arm";
-/// The defmt decoder the firmware tests pipe QEMU's output through.
-const DEFMT_PRINT_VERSION: &str = "1.2.0";
 
 /// Installs what `test` needs and a fresh machine lacks. Idempotent: each step checks first.
 ///
@@ -111,29 +152,7 @@ fn setup() -> bool {
             return false;
         }
     }
-    // cargo-fuzz needs a nightly toolchain (sanitizer flags).
-    let toolchains = output("rustup", &["toolchain", "list"]);
-    if !toolchains.lines().any(|l| l.starts_with("nightly"))
-        && !run(
-            "rustup",
-            &["toolchain", "install", "nightly", "--profile", "minimal"],
-        )
-    {
-        return false;
-    }
-    if !have("qemu-system-arm") && !install_qemu() {
-        return false;
-    }
-    if !have("defmt-print")
-        && !cargo(&[
-            "install",
-            "--locked",
-            "--quiet",
-            "defmt-print",
-            "--version",
-            DEFMT_PRINT_VERSION,
-        ])
-    {
+    if !have("qemu-system-arm") && !timed(format!("apt-get install {QEMU_PACKAGE}"), install_qemu) {
         return false;
     }
     true
@@ -260,14 +279,25 @@ fn test() -> bool {
             ],
             &[("RUSTDOCFLAGS", "-D warnings")],
         )
-        && fuzz(20_000)
 }
 
 /// The cargo-fuzz targets (fuzz/fuzz_targets).
 const FUZZ_TARGETS: [&str; 2] = ["step", "recording"];
 
-/// Runs every fuzz target for `runs` executions on nightly (installing cargo-fuzz if missing).
+/// Runs every fuzz target for `runs` executions on nightly (installing nightly and cargo-fuzz if
+/// missing). The test command does not: it replays the corpus and seeded mutations through the
+/// same bodies on stable (`host-tests/tests/integration/fuzz_corpus.rs`).
 fn fuzz(runs: u64) -> bool {
+    // cargo-fuzz needs a nightly toolchain (sanitizer flags).
+    let toolchains = output("rustup", &["toolchain", "list"]);
+    if !toolchains.lines().any(|l| l.starts_with("nightly"))
+        && !run(
+            "rustup",
+            &["toolchain", "install", "nightly", "--profile", "minimal"],
+        )
+    {
+        return false;
+    }
     let installed = Command::new("cargo")
         .args(["fuzz", "--version"])
         .output()
@@ -295,21 +325,24 @@ fn fuzz(runs: u64) -> bool {
         let scratch = scratch.display().to_string();
         let corpus = format!("fuzz/corpus/{t}");
         let runs = format!("-runs={runs}");
-        println!("\n==> cargo +nightly fuzz run {t} {scratch} {corpus} -- {runs}");
-        Command::new("cargo")
-            .args([
-                "+nightly",
-                "fuzz",
-                "run",
-                t,
-                &scratch,
-                &corpus,
-                "--",
-                &runs,
-                "-max_len=4096",
-            ])
-            .status()
-            .is_ok_and(|s| s.success())
+        let label = format!("cargo +nightly fuzz run {t} {scratch} {corpus} -- {runs}");
+        println!("\n==> {label}");
+        timed(label, || {
+            Command::new("cargo")
+                .args([
+                    "+nightly",
+                    "fuzz",
+                    "run",
+                    t,
+                    &scratch,
+                    &corpus,
+                    "--",
+                    &runs,
+                    "-max_len=4096",
+                ])
+                .status()
+                .is_ok_and(|s| s.success())
+        })
     })
 }
 
@@ -552,6 +585,7 @@ fn main() -> ExitCode {
             false
         }
     };
+    print_times();
     if ok {
         ExitCode::SUCCESS
     } else {

@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long, default_value_t = 10.0)]
     p0: f64,
     /// Trace limit on P (0: none) [default: 100 for the linear models in your units; 0.3 for the
-    /// nonlinear ones, in normalised units where θ is of order 1 (tests/nonlinear_units.rs)].
+    /// nonlinear ones, in normalised units where θ is of order 1 (tests/integration/nonlinear_units.rs)].
     #[arg(long)]
     trace_limit: Option<f64>,
     /// Dead zone on |ε| in y units (0: none).

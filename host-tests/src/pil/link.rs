@@ -333,27 +333,35 @@ fn cstr_name(name: &std::ffi::CStr) -> String {
     name.to_string_lossy().into_owned()
 }
 
-/// Decodes the defmt frames of `frames` with `defmt-print -e elf`.
+/// Decodes the defmt frames of `frames` with the image `elf`'s defmt table (the `defmt-decoder`
+/// crate, which `defmt-print` wraps): one line per frame, its message. A malformed frame the
+/// encoding can recover from (rzCOBS) is skipped and named in its own line.
 ///
 /// # Errors
-/// `defmt-print` missing or failing.
+/// Either file unreadable, the image without a defmt table, or a malformed frame the encoding
+/// cannot recover from.
 pub fn decode_defmt(elf: &Path, frames: &Path) -> Result<String, String> {
-    let defmt_print = require_tool(
-        "defmt-print",
-        "cargo install defmt-print --locked --version 1.2.0",
-    )?;
-    let input = File::open(frames).map_err(|e| format!("{}: {e}", frames.display()))?;
-    let out = Command::new(defmt_print)
-        .arg("-e")
-        .arg(elf)
-        .stdin(input)
-        .output()
-        .map_err(|e| format!("run defmt-print: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "defmt-print failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        ));
+    let image = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let table = defmt_decoder::Table::parse(&image)
+        .map_err(|e| format!("{}: defmt table: {e}", elf.display()))?
+        .ok_or_else(|| format!("{}: no defmt table", elf.display()))?;
+    let data = std::fs::read(frames).map_err(|e| format!("{}: {e}", frames.display()))?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(&data);
+    let mut log = String::new();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => {
+                log.push_str(&frame.display_message().to_string());
+                log.push('\n');
+            }
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => return Ok(log),
+            Err(defmt_decoder::DecodeError::Malformed) if table.encoding().can_recover() => {
+                log.push_str("(a malformed defmt frame skipped)\n");
+            }
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                return Err(format!("{}: a malformed defmt frame", frames.display()));
+            }
+        }
     }
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }

@@ -36,7 +36,7 @@
 //! The configuration is [`design`]: the scheduled controller tuned on the default twin's sled
 //! (`crate::control_eval::scheduled_design_for`, at the sled's Ts = 0.455 ms) with the hand-over
 //! latency [`HANDOVER_LATENCY`]; its words are `firmware/src/loop_words.rs`
-//! (`SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test firmware_qemu loop_words`).
+//! (`SLEDID_WRITE_CONFIG=1 cargo test -p sledid-host --test integration firmware_qemu::loop_words`).
 
 mod cli;
 mod faults;
@@ -690,7 +690,7 @@ impl PilRun {
 /// checked in lockstep against the host's reference, with `faults`; QEMU works in `dir`.
 ///
 /// # Errors
-/// QEMU or its link failing to start, the words, `defmt-print`. A mismatch or a link failure
+/// QEMU or its link failing to start, the words, the defmt log not decoding. A mismatch or a link failure
 /// during the run is in the result, not an error.
 pub fn run_pil(
     core: Core,

@@ -3,7 +3,7 @@
 //!
 //! The textbook form is what most tools implement; on badly scaled regressors (differenced EMPS:
 //! |Δy| ~ 10³ counts, |Δu| ~ 10⁻⁴ of full scale) its `P − ggᵀ/α` cancels catastrophically even in
-//! float64 (`host-tests/tests/emps_vs_f64.rs` shows it 17 % away from the exact batch solution). The
+//! float64 (`host-tests/tests/integration/emps_vs_f64.rs` shows it 17 % away from the exact batch solution). The
 //! UD form is the reference the fixed-point path is held to.
 
 // The reference mirrors the equations index for index (Uᵢⱼ, κᵢ): readability over iterator style.

@@ -7,7 +7,7 @@
 //! documentation. The *decisions* (region, fine step, coasting, fallback) are the fixed-point
 //! controller's, passed in per sample as a [`LawMode`]: they are logic on integer readings and
 //! counters, tested on their own; what is measured here is the arithmetic
-//! (`host-tests/tests/scheduled_control.rs`).
+//! (`host-tests/tests/integration/scheduled_control.rs`).
 
 use sledid::control::placement::PlacementDesign;
 use sledid::control::{ConfigError, ControlFlags, ControlOutput, Region, ScheduledDesign};

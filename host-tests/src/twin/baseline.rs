@@ -23,7 +23,7 @@
 //! oscillation), then hunts `…, +1, …, +1, 0, −1, …, −1, 0, +1, …` with a period of about 77
 //! samples (35 ms), one pulse above breakaway per half period. The way out, the sled at rest in
 //! the zero cell with `|I|` below breakaway, is reached in 70 of 1,200 random seeks (seeds 0–199,
-//! default noise; `tests/twin.rs`).
+//! default noise; `tests/integration/twin.rs`).
 //!
 //! With [`PidParams::well_damped`] (the earlier default) the P and D terms make a loop of about
 //! 90 Hz that rings down within a few samples, and the integrator moves 91 mV per sample at one

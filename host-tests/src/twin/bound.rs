@@ -41,7 +41,7 @@
 //! switch fraction by bisection to [`SWITCH_TOLERANCE`]; every trajectory evaluated on the way
 //! that ends in the band is a feasible control, and the bound is the smallest `J` among them.
 //! Over the continuous-time optimum it loses at most the sampling of the readings and the
-//! zero-order hold of the switch (`tests/seek_bound.rs` checks a frictionless sled against the
+//! zero-order hold of the switch (`tests/integration/seek_bound.rs` checks a frictionless sled against the
 //! analytic bang-bang time).
 
 use super::params::PlantParams;

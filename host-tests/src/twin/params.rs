@@ -47,10 +47,10 @@
 //! | `ki_v_per_count_s` | 8 | the badly tuned part: integral time `Kp/Ki` = 1.25 ms ≈ 2.7 samples. The integral winds to its clamp through a long seek and unwinds too slowly, so the sled overshoots by ~10 tracks and swings back and forth |
 //! | `integrator_limit_v` | 0.3 | a loose anti-windup clamp, 4.8× the breakaway voltage |
 //!
-//! Measured (`tests/paper_sled_control.rs`, 100 seeks, seed 1): |e| ≤ 1 for good a median of
+//! Measured (`tests/integration/paper_sled_control.rs`, 100 seeks, seed 1): |e| ≤ 1 for good a median of
 //! 89 samples after the reference arrives, through a median of 4 alternating excursions beyond
 //! ±1; ±1-quantum hunting with a period of ~77 samples (35 ms) in 98 of 100 dwells; over 1,200
-//! seeks 70 end at rest in the zero cell (`tests/twin.rs`). `host-tests/plants/README.md` has the full account and how the
+//! seeks 70 end at rest in the zero cell (`tests/integration/twin.rs`). `host-tests/plants/README.md` has the full account and how the
 //! gains were chosen; `host-tests/plants/paper_sled.json` writes these defaults out.
 //!
 //! [`PidParams::well_damped`] is the earlier default, a well-damped PD loop of about 90 Hz with

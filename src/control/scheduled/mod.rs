@@ -43,7 +43,7 @@
 //! seeks: identical regions and fallback decisions; |u − u_f64| < 2·10⁻⁵ full scale without
 //! compensation (output LSB, gain rounding), < 4·10⁻³ with the Coulomb inverse map or a Wiener
 //! output map (the table's interpolation at the map's steep centre)
-//! (`fixed_point_matches_float64_in_closed_loop` in `host-tests/tests/scheduled_control.rs`); an
+//! (`fixed_point_matches_float64_in_closed_loop` in `host-tests/tests/integration/scheduled_control.rs`); an
 //! identity output map is bit-identical to none (`output_map_acts_only_in_settle_and_identity_is_exact`).
 //!
 //! # Cost
@@ -458,7 +458,7 @@ pub const SETTLE_REDESIGN_UPDATES: u32 = 32;
 /// whose reference has arrived, but whose sled has not reached the settle band, asks for another.
 /// On a slow sled (heavily damped, gain in quanta a tenth of the prior's) the prior's gains
 /// crawl to the target over hundreds of samples and Settle, where redesigns were asked for, never
-/// came before the next seek (`tests/control.rs`, `a_crawling_seek_is_redesigned`). Not while the
+/// came before the next seek (`tests/integration/control.rs`, `a_crawling_seek_is_redesigned`). Not while the
 /// reference moves: a model fitted to a saturated seek and placed mid-seek held heavy,
 /// low-friction sleds two and three cells off (seeds 2, 5, 6 of the family: largest true holding
 /// error 1.87 / 1.49 / 1.49 → 3.39 / 2.31 / 2.01 quanta).
@@ -1069,7 +1069,7 @@ impl ScheduledConfig {
         // The linear drive the sled sees: v, or h(u) where the map was not applied. (Where the
         // rail clips u the sled sees h(u), not v: the velocity observer is fed v there, and
         // feeding it h(u) moved the reference-following family's holding error from 1.49 to
-        // 1.67 quanta, `tests/control_family.rs`; the time-optimal seek feeds its own observer
+        // 1.67 quanta, `tests/integration/control_family.rs`; the time-optimal seek feeds its own observer
         // what the rail let through.)
         state.last_v_i32f32 = if terms.compensate {
             v

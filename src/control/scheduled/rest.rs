@@ -33,7 +33,7 @@
 //! it ends after FINE_STEP_SAMPLES_MAX samples, longer than the slowest breakaway ramp seen
 //! (70 samples). On the 200-plant families of seeds 1 / 7 / 2, 100 calibrated seeks each, the
 //! plants with an unsettled seek or a pulse fell from 4 / 6 / 4 to 0 / 0 / 1 (7 of 1,400 over
-//! seeds 1–7; `tests/seek_family.rs`). The reference-following servo keeps the patient rule:
+//! seeds 1–7; `tests/integration/seek_family.rs`). The reference-following servo keeps the patient rule:
 //! eager, its family's clean plants fell from 97 % to 91 % (the fine steps' pulses), its largest
 //! holding error rose from 1.5 to 3.2 quanta.
 

@@ -51,7 +51,7 @@
 //! # Accuracy
 //! - tanh: max |error| 9.39·10⁻⁵ ≈ 2⁻¹³·⁴ over the whole I8F24 input range (the interpolation error
 //!   h²/8·max|tanh″| = 9.40·10⁻⁵ at z ≈ 0.67); requirement 2⁻¹² = 2.44·10⁻⁴. Asserted, and printed, by
-//!   `tanh_max_error_over_the_whole_input_range` in `host-tests/tests/neuron_decimate.rs`.
+//!   `tanh_max_error_over_the_whole_input_range` in `host-tests/tests/integration/neuron_decimate.rs`.
 //! - s = 1 − t²: error ≤ 2·9.4·10⁻⁵ = 1.9·10⁻⁴.
 //! - g: ≤ |w|·9.4·10⁻⁵ + 2⁻¹⁷; ∂g/∂w: ≤ 9.4·10⁻⁵ + 2⁻¹⁷; ∂g/∂c: ≤ |w|·1.9·10⁻⁴ + 2⁻²¹ + 2⁻¹⁷;
 //!   ∂g/∂x: ≤ |w·a|·1.9·10⁻⁴ + |a|·2⁻²¹ + 2⁻¹⁷; ∂g/∂a: ≤ |w·x|·1.9·10⁻⁴ + |x|·2⁻²¹ + 2⁻¹⁷ (w·s is

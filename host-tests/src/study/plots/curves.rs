@@ -1,5 +1,5 @@
 //! A row of simple x–y panels (true vs estimated curves), for figures outside the study proper —
-//! e.g. the recovered static nonlinearities of `tests/nonlinear.rs` against the true ones.
+//! e.g. the recovered static nonlinearities of `tests/integration/nonlinear.rs` against the true ones.
 
 use plotters::prelude::*;
 use std::path::Path;

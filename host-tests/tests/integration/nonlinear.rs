@@ -9,7 +9,7 @@
 //! because θ is not: (w, a) and (−w, −a) are the same neuron, and eq. 5's two neurons and b₁ trade
 //! off along flat directions (its LM search does not converge in θ, its SSE does).
 //!
-//! `cargo test -p sledid-host --test nonlinear -- --nocapture` prints the table.
+//! `cargo test -p sledid-host --test integration nonlinear:: -- --nocapture` prints the table.
 
 use sledid::ident::nonlinear::structure::{Lags, evaluate};
 use sledid::ident::nonlinear::{InputRanges, NonlinearDesign, NonlinearStructure};

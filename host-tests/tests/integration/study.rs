@@ -153,7 +153,7 @@ fn twin_paper_protocol_arx1_simulates_worse_than_oe1() {
     println!("ARX1 sim RMS > OE1 sim RMS (validation, Ts) per seed: {holds:?}");
     // The paper's and findings' ordering. Measured on the default twin (the paper's loop, whose
     // windows hold the decaying oscillation): holds on all 8 seeds, ARX1's simulation diverging on
-    // 7 (`tests/study_paper_twin.rs` asserts it with a factor of 2). On the well-damped baseline
+    // 7 (`tests/integration/study_paper_twin.rs` asserts it with a factor of 2). On the well-damped baseline
     // (`plants/well_damped.json`, the default before) it held on 7 of 8 — it failed where ARX1
     // happened to be stable and both models simulated no better than the output's own RMS — and
     // this test asserted ≥ 6 of 8.

@@ -36,7 +36,7 @@
 //! circle — a discontinuity: a proposal within rounding of the circle is halved by one twin and
 //! not by the other (sample ~100), every parameter's step then differs by 2× and the paths part.
 //! Shortening the step to the boundary instead (continuous) brought EMPS's five structures within
-//! 0.5 % but moved the matched-plant tests (`tests/nonlinear.rs`: eq. 5 on-line 0.4555 against a
+//! 0.5 % but moved the matched-plant tests (`tests/integration/nonlinear.rs`: eq. 5 on-line 0.4555 against a
 //! batch optimum of 0.2805 with the step on the boundary, friction 0.3717 against 0.3067 half-way
 //! to it), so the halving stays.
 //!

@@ -258,7 +258,7 @@ fn today_on_the_nominal_sled() {
     // 1.5, not 1.4: the stop-point law runs an identified model at α = 0.6, p = 0.3 (its
     // ARX(1,1) bias rings at p = 0) where the earlier law ran α = 0.7, p = 0.5 — measured 1.44–1.45
     // here (1.33 before) for a p95 of 2.67–3.50 (3.50) here and 3.50 / 3.57 (8.0 / 9.7) over the
-    // families (`tests/seek_family.rs`); on its exact model the same sled is at 1.05.
+    // families (`tests/integration/seek_family.rs`); on its exact model the same sled is at 1.05.
     assert!(s.ratio_long_median <= 1.5, "{s:?}");
     assert_eq!(s.unsettled, 0, "{s:?}");
     // Every pulse of the seek mode is a fine step (a sled at rest one cell off stepping toward

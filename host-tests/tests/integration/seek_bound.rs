@@ -2,7 +2,7 @@
 //! the analytic bang-bang time of a frictionless sled, it grows like √distance for short seeks and
 //! linearly for long ones, it never shrinks with the distance, and the reference shape options it
 //! is measured with leave the twin's defaults untouched. That no closed-loop run beats it is
-//! `tests/seek.rs`.
+//! `tests/integration/seek.rs`.
 
 use sledid_host::twin::{
     PlantParams, ReferenceParams, ReferenceProfile, SeekDistribution, Twin, TwinParams,

@@ -151,7 +151,7 @@ fn emps_arx_and_output_error_agree_with_float64() {
 /// How much of the EMPS ARX(2,2) figure is rounding luck: the `replay` pipeline (Differenced
 /// output, ARX(2,2), λ 0.995, the replay defaults) at 24 position units within ±1.7 % of 10 µm,
 /// printing the spread of the final θ relative error and of the simulation-RMS ratio. A measurement,
-/// not an assertion (`cargo test -p sledid-host --test emps_vs_f64 -- --ignored --nocapture`).
+/// not an assertion (`cargo test -p sledid-host --test integration emps_vs_f64:: -- --ignored --nocapture`).
 /// Measured 2026-11: kernel before the cost work median 1.10e-3, mean 1.45e-3, max 3.84e-3; after
 /// it median 1.27e-3, mean 1.29e-3, max 2.79e-3.
 #[test]

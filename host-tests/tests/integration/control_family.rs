@@ -28,7 +28,7 @@
 //! pass's rule: the 0.3 s window was shorter than the slowest sleds' fastest seek, up to 0.36 s, and
 //! counted the plant's physics as the servo's unsettled seeks) — 99.0 / 98.0 % on seeds 1 / 7 with
 //! that alone —, and a crawling reference-following seek asks for its redesign before it reaches
-//! the settle band (`SEEK_REDESIGN_UPDATES`, `tests/scheduled_control.rs`). Asserted at the floor
+//! the settle band (`SEEK_REDESIGN_UPDATES`, `tests/integration/scheduled_control.rs`). Asserted at the floor
 //! of the seven families: a one-plant flip on seed 1 would otherwise decide the test.
 //!
 //! What trips each: a servo without identification (clean falls to the frozen servo's ≈ 80 %,
@@ -117,7 +117,7 @@ fn the_servo_holds_up_on_the_plant_family() {
 }
 
 /// The spread of the holding-error figure over families (a measurement, run on demand:
-/// `cargo test --release -p sledid-host --test control_family -- --ignored --nocapture`): for
+/// `cargo test --release -p sledid-host --test integration control_family:: -- --ignored --nocapture`): for
 /// each seed, the largest true holding error and the plants held 1.5 quanta or more off (two
 /// cells), and the other statistics the test above asserts.
 #[test]

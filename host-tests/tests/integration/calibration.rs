@@ -1,7 +1,7 @@
 //! Power-on calibration (`sledid::servo::calibration`): the experiment and its fit on the plant
 //! family, the fit against its float64 reference, and the sleds it must refuse.
 //!
-//! Measured (`cargo test -p sledid-host --test calibration -- --nocapture`; the servo designed
+//! Measured (`cargo test -p sledid-host --test integration calibration:: -- --nocapture`; the servo designed
 //! from the nominal prior, each plant of the family calibrated once, noise seed = plant index):
 //!
 //! | family seed | gain b within 10 % / 25 % | b error median / max | samples median / max | travel median / max (quanta) | Coulomb ≥ 0.5 % FS within 25 % |

@@ -32,7 +32,7 @@ fn row(name: &str, s: &ControlSummary) {
 }
 
 /// Issue 5's targets against the well-damped baseline (`host-tests/plants/well_damped.json`; against
-/// the default, the paper's loop, they are asserted in full in `tests/paper_sled_control.rs`).
+/// the default, the paper's loop, they are asserted in full in `tests/integration/paper_sled_control.rs`).
 /// Asserted in full: no unsettled seek and no limit-cycle pulse, on every plant. The settling target (median ≥ 30 % shorter than the baseline's) is asserted where the
 /// reference allows it; where 0.7 × the baseline's median lies below the time the *reference
 /// itself* needs to come within one quantum of the target (`reference_bound_ms`), no controller
@@ -741,7 +741,7 @@ fn time_optimal_run(seed: u64) -> (sledid_host::control::run::ControlRun, usize)
 /// = 43; with the fine step's integrator restart 4, 3, 3, 6, 7, 5 = 28, seeds 7–12 7, 10, 11,
 /// 6, 7, 8 = 49), with the previous kernel 4, 1, 6, 7, 10, 3 (31; seeds 7–12: 27), against 0, 0, 2, 1,
 /// 2, 1 with the earlier braking-curve law — a regression of this 30 ms-dwell setting taken for
-/// the family's p95 (8.0 → 3.5) and clean plants (`tests/seek_family.rs`). Asserted as a
+/// the family's p95 (8.0 → 3.5) and clean plants (`tests/integration/seek_family.rs`). Asserted as a
 /// statistic over seeds 1–6 with the blocks' spread: ≤ 48 of 600 and ≤ 15 per seed; hunting (a
 /// pulse in most seeks) trips it.
 #[test]

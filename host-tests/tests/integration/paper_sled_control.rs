@@ -13,7 +13,7 @@ use sledid_host::twin::{PlantParams, TwinParams};
 /// Seeks per plant and controller (the 100).
 const SEEKS: u32 = 100;
 
-/// The default twin (equal to `plants/paper_sled.json`: `tests/twin.rs`).
+/// The default twin (equal to `plants/paper_sled.json`: `tests/integration/twin.rs`).
 fn paper_sled() -> TwinParams {
     TwinParams::default()
 }

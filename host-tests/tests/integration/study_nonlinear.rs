@@ -1,7 +1,7 @@
 //! The paper's nonlinear models in `sledid study` (Section 5): on the sled twin with the paper's
 //! protocol, and on the Silverbox recording (a real cubic-spring system).
 //!
-//! `cargo test -p sledid-host --test study_nonlinear -- --nocapture` prints the tables. What the
+//! `cargo test -p sledid-host --test integration study_nonlinear:: -- --nocapture` prints the tables. What the
 //! assertions say is what was measured (see STUDY.md); the thresholds leave a margin around the
 //! measured values and were set after measuring, as regression guards: they can fail.
 
@@ -11,7 +11,7 @@ use sledid_host::study::{Centring, Segment, Study, StudyInput, StudyOptions, run
 use sledid_host::twin::TwinParams;
 use std::path::PathBuf;
 
-/// Seeds of the twin runs, as in `tests/study.rs`.
+/// Seeds of the twin runs, as in `tests/integration/study.rs`.
 const TWIN_SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
 
 fn scratch_dir(name: &str) -> PathBuf {

@@ -3,7 +3,7 @@
 //! as well as the best linear model on the paper's short twin windows, and on plants with a
 //! structure's own kind of nonlinearity it is that structure and beats its linear start.
 //!
-//! `cargo test -p sledid-host --test study_recommend -- --nocapture` prints every case. The
+//! `cargo test -p sledid-host --test integration study_recommend:: -- --nocapture` prints every case. The
 //! measured figures are in STUDY.md ("The recommended model"); the thresholds below were set
 //! after measuring and can fail.
 
@@ -171,7 +171,7 @@ fn the_validation_segment_does_not_change_the_recommendation() {
     }
 }
 
-/// A closed-loop record of `plant` (the plants of `tests/nonlinear.rs`), in the study's units.
+/// A closed-loop record of `plant` (the plants of `tests/integration/nonlinear.rs`), in the study's units.
 fn plant_signals(plant: NonlinearPlant, samples: usize, seed: u64) -> Signals {
     let r = nonlinear_closed_loop(plant, &ClosedLoopSpec::matched_plant(samples, seed));
     Signals {
@@ -185,7 +185,7 @@ fn plant_signals(plant: NonlinearPlant, samples: usize, seed: u64) -> Signals {
 }
 
 /// The structures whose model class holds each plant: the one-neuron input saturation is eq. 5
-/// (a neuron unused), eq. 6 (a_y = 0) and eq. 7 (f₂ = b₂ = 0) alike — `tests/nonlinear.rs` pairs
+/// (a neuron unused), eq. 6 (a_y = 0) and eq. 7 (f₂ = b₂ = 0) alike — `tests/integration/nonlinear.rs` pairs
 /// it with eq. 5 and eq. 6 — the others have one structure of their own kind.
 const OWN_KIND: [(NonlinearPlant, &[&str]); 4] = [
     (

@@ -1,7 +1,7 @@
 //! Fault injection through the replay harness: for each fault, the expected status flag appears
 //! within a stated number of samples, the estimator's θ and P stay frozen while it is held and move
 //! again after, θ ends within a measured bound of the fault-free run's, no panic, and the trace
-//! keeps every sample. `cargo test -p sledid-host --test faults -- --nocapture` prints the table
+//! keeps every sample. `cargo test -p sledid-host --test integration faults:: -- --nocapture` prints the table
 //! and the spread kept in RELIABILITY.md.
 
 use sledid::ident::linear::{LinearDesign, Structure};
@@ -27,7 +27,7 @@ const SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
 
 // Bounds on the relative θ error after a fault, against the fault-free run of the same recording.
 // Each is twice the largest error measured by `theta_error_is_bounded_across_seeds_and_fault_positions`
-// (`cargo test -p sledid-host --test faults -- --nocapture theta_error`), which asserts it on every
+// (`cargo test -p sledid-host --test integration faults::theta_error -- --nocapture`), which asserts it on every
 // case it measures: 29 cases (the 8 seeds at the nominal sample, seed 4 with the fault moved
 // −10…+10 samples), 11 for the stuck sensor (seed 4, start 15…25). The errors spread 2–30× across
 // cases, so twice the worst is a change of behaviour, not of luck. Measured (min … max):

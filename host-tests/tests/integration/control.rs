@@ -18,7 +18,7 @@ const EMPS: &str = concat!(
     "/../../shared/data/emps/DATA_EMPS.csv"
 );
 
-/// Seeds of the closed-loop comparison (6 random seeks each, as in `tests/twin.rs`).
+/// Seeds of the closed-loop comparison (6 random seeks each, as in `tests/integration/twin.rs`).
 const SEEDS: [u64; 4] = [1, 2, 3, 4];
 
 /// The twin with `controller` in the loop, run to the end.

@@ -15,7 +15,7 @@
 //! Asserted: max over the record after 200 samples of ‖θ − θ_f64‖/‖θ_f64‖ below 1·10⁻³ for every
 //! power-of-two unit and the quantum (issue 24's set), with the float64 UD update fed the same
 //! quantised samples; the three other mantissas below 2·10⁻³. Measured (2026-11-26, the one-pass
-//! kernel; `cargo test -p sledid-host --test unit_sweep -- --nocapture` prints every row):
+//! kernel; `cargo test -p sledid-host --test integration unit_sweep:: -- --nocapture` prints every row):
 //!
 //! | record | 2⁻¹⁰…2¹⁰ × nominal | quantum | ×1.5, ×3, ×0.7 |
 //! |---|---|---|---|
