@@ -32,6 +32,7 @@ use super::{Dataset, MIN_SAMPLES_PER_PARAMETER, RMS_START, StudyOptions};
 use crate::reference::linear::stable;
 use crate::reference::nonlinear::{evaluate, static_map};
 use crate::reference::nonlinear_batch::simulate_from_measured;
+use rayon::prelude::*;
 use sledid::ident::nonlinear::NonlinearStructure;
 
 /// Points of a static-map curve.
@@ -150,93 +151,121 @@ pub fn fit_all(
     label: &str,
     decimation: usize,
 ) -> (Vec<NonlinearReport>, Vec<String>) {
-    let (y, u) = (&ident.y, &ident.u);
+    // The structures are fitted in parallel (each fit is deterministic: the same reports, in
+    // the order of `NonlinearStructure::ALL`, on any number of threads).
+    let fitted: Vec<Fitted> = NonlinearStructure::ALL
+        .par_iter()
+        .map(|&s| fit_one(s, ident, valid, linear, options, label, decimation))
+        .collect();
     let mut reports = Vec::new();
     let mut notes = Vec::new();
-    for s in NonlinearStructure::ALL {
-        let (name, counterpart, paper) = describe(s);
-        let Some(lin) = linear.iter().find(|m| m.name == counterpart) else {
-            continue;
-        };
-        let na = s.na();
-        let (den, num) = (&lin.theta[..na], &lin.theta[na..]);
-        let Some((lin_theta, th0, init)) = linear_start(s, den, num, y, u) else {
-            continue;
-        };
-        let Some(ms) = fit_structure(s, &th0, y, u, options, decimation, 0) else {
-            notes.push(format!(
-                "{name} at {label}: could not be fitted (start or data)"
-            ));
-            continue;
-        };
-        let f = &ms.fit;
-        let sim_ident = simulate_from_measured(s, &f.theta, y, u);
-        let sim_valid = simulate_from_measured(s, &f.theta, &valid.y, &valid.u);
-        let rms_sim_ident = rms_from(y, &sim_ident, RMS_START);
-        let rms_sim_valid = rms_from(&valid.y, &sim_valid, RMS_START);
-        let d = s.parameter_count();
-        let samples_per_param = y.len() as f64 / d as f64;
-        let eps: Vec<f64> = valid.y.iter().zip(&sim_valid).map(|(a, b)| a - b).collect();
-        let from = RMS_START.min(eps.len());
-        let n_eff = y.len().saturating_sub(na);
-        let den_fit = &f.theta[..na];
-        let b = &f.theta[na..2 * na];
-        let zeros = match b.split_first() {
-            Some((&b1, rest)) if b1 != 0.0 => {
-                monic_roots(&rest.iter().map(|v| v / b1).collect::<Vec<_>>())
-            }
-            _ => Vec::new(),
-        };
-        reports.push(NonlinearReport {
-            name: name.to_owned(),
-            structure: s.name(),
-            linear_counterpart: counterpart.to_owned(),
-            order: na,
-            parameters: s
-                .parameter_names()
-                .iter()
-                .map(|n| (*n).to_owned())
-                .zip(f.theta.iter().copied())
-                .collect(),
-            theta: f.theta.clone(),
-            theta0: th0,
-            poles: monic_roots(den_fit),
-            zeros,
-            stable: stable(den_fit, 1.0 - 1e-12),
-            n_params: d,
-            samples_ident: y.len(),
-            samples_per_param,
-            overfit_risk: samples_per_param < MIN_SAMPLES_PER_PARAMETER,
-            overfit_evidence: rms_sim_ident < lin.rms_sim_ident
-                && rms_sim_valid > lin.rms_sim_valid,
-            fpe: fpe(f.sse_final, n_eff, d),
-            linear_fpe: lin.fpe,
-            rms_sim_ident,
-            rms_sim_valid,
-            linear_rms_sim_ident: lin.rms_sim_ident,
-            linear_rms_sim_valid: lin.rms_sim_valid,
-            change_vs_linear_valid: rms_sim_valid / lin.rms_sim_valid - 1.0,
-            paper_change_vs_linear: paper,
-            fit: NonlinearFitReport {
-                method: "levenberg_marquardt",
-                init,
-                ridge: options.nonlinear_ridge,
-                sse_init: ms.sse_linear,
-                sse_final: f.sse_final,
-                iterations: f.iterations,
-                converged: f.converged,
-                start: if ms.start == 0 {
-                    "linear".to_owned()
-                } else {
-                    format!("random {}", ms.start)
-                },
-                sse_per_start: ms.sse_per_start.clone(),
-            },
-            cv: Criterion::default(),
-            xcorr_valid: cross_correlation(&eps[from..], &valid.u[from..], options.xcorr_lags),
-            static_map: map_of(s, &f.theta, &lin_theta, ident),
-            sim_valid,
-        });
+    for f in fitted {
+        match f {
+            Fitted::Report(r) => reports.push(*r),
+            Fitted::Note(n) => notes.push(n),
+            Fitted::Skipped => {}
+        }
     }
     (reports, notes)
+}
+
+/// One structure's outcome in [`fit_all`].
+enum Fitted {
+    Report(Box<NonlinearReport>),
+    Note(String),
+    Skipped,
+}
+
+/// Fits and scores structure `s` ([`fit_all`]).
+fn fit_one(
+    s: NonlinearStructure,
+    ident: &Dataset,
+    valid: &Dataset,
+    linear: &[ModelReport],
+    options: &StudyOptions,
+    label: &str,
+    decimation: usize,
+) -> Fitted {
+    let (y, u) = (&ident.y, &ident.u);
+    let (name, counterpart, paper) = describe(s);
+    let Some(lin) = linear.iter().find(|m| m.name == counterpart) else {
+        return Fitted::Skipped;
+    };
+    let na = s.na();
+    let (den, num) = (&lin.theta[..na], &lin.theta[na..]);
+    let Some((lin_theta, th0, init)) = linear_start(s, den, num, y, u) else {
+        return Fitted::Skipped;
+    };
+    let Some(ms) = fit_structure(s, &th0, y, u, options, decimation, 0) else {
+        return Fitted::Note(format!(
+            "{name} at {label}: could not be fitted (start or data)"
+        ));
+    };
+    let f = &ms.fit;
+    let sim_ident = simulate_from_measured(s, &f.theta, y, u);
+    let sim_valid = simulate_from_measured(s, &f.theta, &valid.y, &valid.u);
+    let rms_sim_ident = rms_from(y, &sim_ident, RMS_START);
+    let rms_sim_valid = rms_from(&valid.y, &sim_valid, RMS_START);
+    let d = s.parameter_count();
+    let samples_per_param = y.len() as f64 / d as f64;
+    let eps: Vec<f64> = valid.y.iter().zip(&sim_valid).map(|(a, b)| a - b).collect();
+    let from = RMS_START.min(eps.len());
+    let n_eff = y.len().saturating_sub(na);
+    let den_fit = &f.theta[..na];
+    let b = &f.theta[na..2 * na];
+    let zeros = match b.split_first() {
+        Some((&b1, rest)) if b1 != 0.0 => {
+            monic_roots(&rest.iter().map(|v| v / b1).collect::<Vec<_>>())
+        }
+        _ => Vec::new(),
+    };
+    Fitted::Report(Box::new(NonlinearReport {
+        name: name.to_owned(),
+        structure: s.name(),
+        linear_counterpart: counterpart.to_owned(),
+        order: na,
+        parameters: s
+            .parameter_names()
+            .iter()
+            .map(|n| (*n).to_owned())
+            .zip(f.theta.iter().copied())
+            .collect(),
+        theta: f.theta.clone(),
+        theta0: th0,
+        poles: monic_roots(den_fit),
+        zeros,
+        stable: stable(den_fit, 1.0 - 1e-12),
+        n_params: d,
+        samples_ident: y.len(),
+        samples_per_param,
+        overfit_risk: samples_per_param < MIN_SAMPLES_PER_PARAMETER,
+        overfit_evidence: rms_sim_ident < lin.rms_sim_ident && rms_sim_valid > lin.rms_sim_valid,
+        fpe: fpe(f.sse_final, n_eff, d),
+        linear_fpe: lin.fpe,
+        rms_sim_ident,
+        rms_sim_valid,
+        linear_rms_sim_ident: lin.rms_sim_ident,
+        linear_rms_sim_valid: lin.rms_sim_valid,
+        change_vs_linear_valid: rms_sim_valid / lin.rms_sim_valid - 1.0,
+        paper_change_vs_linear: paper,
+        fit: NonlinearFitReport {
+            method: "levenberg_marquardt",
+            init,
+            ridge: options.nonlinear_ridge,
+            sse_init: ms.sse_linear,
+            sse_final: f.sse_final,
+            iterations: f.iterations,
+            converged: f.converged,
+            start: if ms.start == 0 {
+                "linear".to_owned()
+            } else {
+                format!("random {}", ms.start)
+            },
+            sse_per_start: ms.sse_per_start.clone(),
+        },
+        cv: Criterion::default(),
+        xcorr_valid: cross_correlation(&eps[from..], &valid.u[from..], options.xcorr_lags),
+        static_map: map_of(s, &f.theta, &lin_theta, ident),
+        sim_valid,
+    }))
 }

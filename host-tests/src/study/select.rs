@@ -33,6 +33,7 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use super::models::{LinearModel, fit_arx, fit_oe, project_stable, refit_num, sse_from};
 use super::results::{Criterion, ModelReport, NonlinearReport, Recommendation};
@@ -264,6 +265,13 @@ impl Score {
     }
 }
 
+/// One fold's held-out readings and every model's simulation of them (`None`: not fitted).
+struct FoldSims {
+    y: Vec<f64>,
+    linear: Vec<Option<Vec<f64>>>,
+    nonlinear: Vec<Option<Vec<f64>>>,
+}
+
 /// The criterion of every linear and nonlinear model of one rate (names as in the report),
 /// from the identification segment alone (see the module documentation).
 pub fn cross_validate(
@@ -279,38 +287,64 @@ pub fn cross_validate(
         (n / 3..n, 0..n / 3),
     ];
     let linear_names = ["ARX1", "ARX2", "OE1", "OE2"];
+    // The folds, and each fold's nonlinear fits, run in parallel (each fit is deterministic: the
+    // same criteria on any number of threads); the scores are added in fold order.
+    let folds: Vec<Option<FoldSims>> = blocks
+        .into_par_iter()
+        .enumerate()
+        .map(|(fold, (train, test))| {
+            let (y, u) = (&ident.y[train.clone()], &ident.u[train]);
+            let (yv, uv) = (&ident.y[test.clone()], &ident.u[test]);
+            let mut arx: [Option<LinearModel>; 2] = [None, None];
+            let mut oe: [Option<LinearModel>; 2] = [None, None];
+            for order in 1..=2 {
+                arx[order - 1] = fit_arx(order, y, u);
+                oe[order - 1] = arx[order - 1]
+                    .as_ref()
+                    .and_then(|a| fit_oe(order, y, u, a))
+                    .map(|f| f.model);
+            }
+            if arx.iter().chain(&oe).any(Option::is_none) {
+                // A part without excitation (e.g. a window that is flat at its end): the linear
+                // models cannot be fitted on it, so it scores no model.
+                return None;
+            }
+            let linear = arx
+                .iter()
+                .chain(&oe)
+                .map(|m| m.as_ref().map(|m| m.simulate(uv, yv)))
+                .collect();
+            let nonlinear = NonlinearStructure::ALL
+                .par_iter()
+                .map(|&s| {
+                    let fitted = oe[s.na() - 1]
+                        .as_ref()
+                        .and_then(|m| linear_start(s, &m.den, &m.num, y, u))
+                        .and_then(|(_, th0, _)| {
+                            fit_structure(s, &th0, y, u, options, decimation, fold + 1)
+                        });
+                    fitted.map(|f| simulate_from_measured(s, &f.fit.theta, yv, uv))
+                })
+                .collect();
+            Some(FoldSims {
+                y: yv.to_vec(),
+                linear,
+                nonlinear,
+            })
+        })
+        .collect();
     let mut lin: [Score; 4] = Default::default();
     let mut nl: [Score; 5] = Default::default();
-    for (fold, (train, test)) in blocks.into_iter().enumerate() {
-        let (y, u) = (&ident.y[train.clone()], &ident.u[train]);
-        let (yv, uv) = (&ident.y[test.clone()], &ident.u[test]);
-        let mut arx: [Option<LinearModel>; 2] = [None, None];
-        let mut oe: [Option<LinearModel>; 2] = [None, None];
-        for order in 1..=2 {
-            arx[order - 1] = fit_arx(order, y, u);
-            oe[order - 1] = arx[order - 1]
-                .as_ref()
-                .and_then(|a| fit_oe(order, y, u, a))
-                .map(|f| f.model);
-        }
-        if arx.iter().chain(&oe).any(Option::is_none) {
-            // A part without excitation (e.g. a window that is flat at its end): the linear
-            // models cannot be fitted on it, so it scores no model.
+    for fold in &folds {
+        let Some(f) = fold else {
             lin.iter_mut().chain(nl.iter_mut()).for_each(Score::skip);
             continue;
+        };
+        for (score, sim) in lin.iter_mut().zip(&f.linear) {
+            score.add(&f.y, sim.as_deref());
         }
-        for (i, m) in arx.iter().chain(&oe).enumerate() {
-            lin[i].add(yv, m.as_ref().map(|m| m.simulate(uv, yv)).as_deref());
-        }
-        for (i, s) in NonlinearStructure::ALL.into_iter().enumerate() {
-            let fitted = oe[s.na() - 1]
-                .as_ref()
-                .and_then(|m| linear_start(s, &m.den, &m.num, y, u))
-                .and_then(|(_, th0, _)| {
-                    fit_structure(s, &th0, y, u, options, decimation, fold + 1)
-                });
-            let sim = fitted.map(|f| simulate_from_measured(s, &f.fit.theta, yv, uv));
-            nl[i].add(yv, sim.as_deref());
+        for (score, sim) in nl.iter_mut().zip(&f.nonlinear) {
+            score.add(&f.y, sim.as_deref());
         }
     }
     linear_names
