@@ -65,6 +65,7 @@ mod target {
     use critical_section::Mutex;
     use semihosting::fs::File;
     use semihosting::io::{Read, Write};
+    use sledid::control::Controller;
     use sledid::control::scheduled::{RedesignJob, RedesignResult};
     use sledid::servo::{
         Calibrated, CalibratedModel, CalibrationRecord, Posted, Refusal, ServoFlags, SledServo,
@@ -405,10 +406,11 @@ mod target {
         Some(answer_job(config, ticket, fitted, health, consumer))
     }
 
-    /// The fit's answer: θ and the first design placed from it, handed back into the loop's
-    /// state and, accepted, made the friction health's reference; whether the hand-over refused
-    /// it. Out of line, as [`redesign_job`]: the answer is on the stack only while this runs (not
-    /// under the fit, nor under every redesign).
+    /// The fit's answer: θ and the first design placed from it ([`SledServo::calibrated`] in
+    /// two frames side by side: the design here, placed by [`first_design`], then the answer in
+    /// [`deliver_answer`] — the answer is not on the stack under the redesign); whether the
+    /// hand-over refused it. Out of line, as [`redesign_job`]: the design is on the stack only
+    /// while this runs (not under the fit, nor under every redesign).
     #[inline(never)]
     fn answer_job(
         config: &SledServo,
@@ -417,7 +419,31 @@ mod target {
         health: &mut HealthWatch,
         consumer: &mut HealthConsumer<'static>,
     ) -> bool {
-        let answer = config.calibrated(fitted);
+        let design = config
+            .first_design_job(&fitted)
+            .map(|job| first_design(config, &job));
+        deliver_answer(config, ticket, fitted, design.as_ref(), health, consumer)
+    }
+
+    /// The first design's redesign (out of line, as [`redesign`]).
+    #[inline(never)]
+    fn first_design(config: &SledServo, job: &RedesignJob) -> RedesignResult {
+        config.controller().redesign(job)
+    }
+
+    /// The fit's answer from the first design, handed back into the loop's state and, accepted,
+    /// made the friction health's reference; whether the hand-over refused it (out of line: see
+    /// [`answer_job`]).
+    #[inline(never)]
+    fn deliver_answer(
+        config: &SledServo,
+        ticket: Ticket,
+        fitted: Result<CalibratedModel, Refusal>,
+        design: Option<&RedesignResult>,
+        health: &mut HealthWatch,
+        consumer: &mut HealthConsumer<'static>,
+    ) -> bool {
+        let answer = config.calibrated_answer(fitted, design);
         let accepted = with_loop(|l| l.ticker.deliver_calibration(ticket, answer));
         if accepted == Some(true) {
             health_adopt(health, consumer, &answer);

@@ -228,8 +228,25 @@ impl BrakingCurve {
     /// K of the model (a, b, u_c) braking at `alpha`·`u_max` (full scale): `None` when the model
     /// cannot brake (α·u_max + u_c ≤ 0, a not in [0, 1], b ≤ 0, non-finite values) or K leaves
     /// the table's format. f32 arithmetic (the redesign's, outside the interrupt).
-    #[allow(clippy::float_arithmetic)]
     pub fn design(a: f32, b: f32, u_c: f32, u_max: f32, alpha: f32) -> Option<Self> {
+        let mut curve = Self::NONE;
+        curve.design_into(a, b, u_c, u_max, alpha).then_some(curve)
+    }
+
+    /// [`Self::design`] written into `self` (no curve built beside it and copied: the
+    /// redesign's frame holds one); false, and `self` [`Self::NONE`], where that is `None`.
+    pub fn design_into(&mut self, a: f32, b: f32, u_c: f32, u_max: f32, alpha: f32) -> bool {
+        if self.tabulate(a, b, u_c, u_max, alpha).is_none() || self.validate().is_err() {
+            *self = Self::NONE;
+            return false;
+        }
+        true
+    }
+
+    /// The table of [`Self::design`] into `self`; `None` (`self` partly written) where the model
+    /// cannot brake or K leaves the table's format.
+    #[allow(clippy::float_arithmetic)]
+    fn tabulate(&mut self, a: f32, b: f32, u_c: f32, u_max: f32, alpha: f32) -> Option<()> {
         let finite = [a, b, u_c, u_max, alpha].iter().all(|x| x.is_finite());
         if !finite || !(0.0..=1.0).contains(&a) || b <= 0.0 || u_max <= 0.0 {
             return None;
@@ -255,7 +272,8 @@ impl BrakingCurve {
         if v_step <= 0 {
             return None;
         }
-        let mut g = [0u32; CURVE_ENTRIES];
+        self.v_step = v_step;
+        let g = &mut self.g;
         for (j, gj) in g.iter_mut().enumerate() {
             // The table's own speeds, as the interrupt reads them.
             let mut w = (j as i64 * i64::from(v_step)) as f32 / 65_536.0;
@@ -287,8 +305,7 @@ impl BrakingCurve {
                 *gj = (*gj).max(prev.saturating_add(1));
             }
         }
-        let curve = Self { v_step, g };
-        curve.validate().ok().map(|()| curve)
+        Some(())
     }
 
     /// K increasing (strictly past the first entry, which is 0) and a positive step, or the
@@ -412,27 +429,50 @@ impl SeekPlan {
 
     /// The plan for the model (a, b, u_c) at `alpha`·`u_max` with velocity pole `p`; `None` as
     /// [`BrakingCurve::design`], or a gain out of [`Gain`]'s format.
-    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
     pub fn design(a: f32, b: f32, u_c: f32, u_max: f32, alpha: f32, p: f32) -> Option<Self> {
-        let curve = BrakingCurve::design(a, b, u_c, u_max, alpha)?;
+        let mut plan = Self::NONE;
+        plan.design_into(a, b, u_c, u_max, alpha, p).then_some(plan)
+    }
+
+    /// [`Self::design`] written into `self` (its curve too: no plan built beside it and
+    /// copied — the redesign's frame holds one); false, and `self` [`Self::NONE`], where that is
+    /// `None`.
+    pub fn design_into(
+        &mut self,
+        a: f32,
+        b: f32,
+        u_c: f32,
+        u_max: f32,
+        alpha: f32,
+        p: f32,
+    ) -> bool {
+        if !self.curve.design_into(a, b, u_c, u_max, alpha) || self.place(a, b, u_c, p).is_none() {
+            *self = Self::NONE;
+            return false;
+        }
+        true
+    }
+
+    /// The gains, v_arrive and u_c of [`Self::design`] into `self` (the curve left as it is);
+    /// `None` (`self` partly written) for a gain out of [`Gain`]'s format.
+    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+    fn place(&mut self, a: f32, b: f32, u_c: f32, p: f32) -> Option<()> {
         let (c1, b0) = sampled(a, b);
         let correct = if c1 > 1e-6 { 0.5 * a / c1 } else { 0.0 };
         let coast_per_speed = if a < 1.0 - 1e-4 { c1 / (1.0 - a) } else { 1.0 };
         let v_arrive = (65_536.0 / coast_per_speed.max(1.0 / 1024.0)).min(65_536.0);
         let g = |x: f32| Gain::from_f64(f64::from(x));
-        Some(Self {
-            k_a: g(a)?,
-            k_b: g(b)?,
-            k_c1: g(c1)?,
-            k_b0: g(b0)?,
-            k_correct: g(correct)?,
-            k_coast: g(c1 - a * b0 / b)?,
-            k_target: g((1.0 - p) / b)?,
-            k_velocity: g((p - a) / b)?,
-            v_arrive: v_arrive as i32,
-            u_coulomb: (u_c.clamp(0.0, 0.5) * 65_536.0) as i32,
-            curve,
-        })
+        self.k_a = g(a)?;
+        self.k_b = g(b)?;
+        self.k_c1 = g(c1)?;
+        self.k_b0 = g(b0)?;
+        self.k_correct = g(correct)?;
+        self.k_coast = g(c1 - a * b0 / b)?;
+        self.k_target = g((1.0 - p) / b)?;
+        self.k_velocity = g((p - a) / b)?;
+        self.v_arrive = v_arrive as i32;
+        self.u_coulomb = (u_c.clamp(0.0, 0.5) * 65_536.0) as i32;
+        Some(())
     }
 
     /// The gains valid, 0 ≤ v_arrive ≤ 1 quantum per sample, the curve valid.
@@ -687,6 +727,21 @@ mod tests {
         assert!(BrakingCurve::design(f32::NAN, 20.0, 0.0, 1.0, 0.8).is_none());
         // A near-integrator is capped at V_TOP_MAX and still brakes.
         assert!(BrakingCurve::design(1.0, 20.0, 0.0, 1.0, 0.8).is_some());
+    }
+
+    /// A plan designed in place over another model's is the plan designed afresh (every field
+    /// and table entry rewritten); a model that cannot brake leaves no plan. Trips on an entry
+    /// or gain left over from the plan it overwrote.
+    #[test]
+    fn a_plan_designed_in_place_is_the_plan_designed_afresh() {
+        let mut plan = SeekPlan::design(0.97, 5.0, 0.05, 1.0, 0.3, 0.7).unwrap();
+        assert!(plan.design_into(0.8336, 23.66, 0.0075, 1.0, 0.7, 0.15));
+        assert_eq!(
+            Some(plan),
+            SeekPlan::design(0.8336, 23.66, 0.0075, 1.0, 0.7, 0.15)
+        );
+        assert!(!plan.design_into(0.8, -1.0, 0.0, 1.0, 0.8, 0.0));
+        assert_eq!(plan, SeekPlan::NONE);
     }
 
     #[test]

@@ -95,6 +95,16 @@ impl<J: Copy, D: Copy> Handover<J, D> {
         self.job.take()
     }
 
+    /// The background's side: the posted job, once, if `f` takes it (`Some`: what the taker
+    /// wants of it); otherwise it stays posted for another taker.
+    pub fn take_job_if<T>(&mut self, f: impl FnOnce(&J) -> Option<T>) -> Option<Posted<T>> {
+        let posted = self.job.as_ref()?;
+        let job = f(&posted.job)?;
+        let ticket = posted.ticket;
+        self.job = None;
+        Some(Posted { ticket, job })
+    }
+
     /// The background's side: the result for `ticket`. A result for a job no longer in flight
     /// (it was due and missed) is dropped (false).
     pub fn deliver(&mut self, ticket: Ticket, design: D) -> bool {
@@ -148,5 +158,16 @@ mod tests {
         assert!(!h.deliver(late.ticket, 90));
         assert!(h.is_free());
         assert_eq!(h.due(21), HandoverEvent::Idle);
+    }
+
+    /// A job is taken only by the taker it is for, and then once; another taker leaves it posted.
+    #[test]
+    fn a_job_is_taken_only_by_its_taker() {
+        let mut h = Handover::<u8, u16>::new();
+        assert!(h.post(7, 10));
+        assert_eq!(h.take_job_if(|&j| (j == 8).then_some(())), None);
+        let posted = h.take_job_if(|&j| (j == 7).then_some(j * 2)).unwrap();
+        assert_eq!((posted.ticket.due, posted.job), (10, 14));
+        assert_eq!(h.take_job_if(|&j| Some(j)), None, "taken once");
     }
 }

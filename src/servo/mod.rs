@@ -234,6 +234,24 @@ pub enum Calibrated<D> {
     Refused(Refusal),
 }
 
+/// The background's work ([`ServoState`]'s hand-over): a redesign's job, or calibration's fit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Work<J> {
+    /// Place the controller's design.
+    Redesign(J),
+    /// Fit calibration's record (held in calibration's state).
+    Fit,
+}
+
+/// The background's answer ([`ServoState`]'s hand-over): a redesign's design, or the fit's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Answer<D> {
+    /// A redesign's design.
+    Redesign(D),
+    /// Calibration's model (or refusal) with the first design.
+    Fit(Calibrated<D>),
+}
+
 /// Everything one sample (or an adopted redesign) mutates.
 pub struct ServoState<C: Controller, I: Identifier> {
     /// Sample index k (wraps after 2³² samples, 22.6 days at Ts).
@@ -245,16 +263,21 @@ pub struct ServoState<C: Controller, I: Identifier> {
     last_y: PositionI48F16,
     y1: i64,
     y2: i64,
-    handover: Handover<C::Job, C::Design>,
+    /// The background's work in flight and its answer: a redesign, or calibration's fit (its job
+    /// is only the ticket: the record stays in [`Self::calibration`] — the experiment leaves it
+    /// alone while it waits for the fit — and is read from there when the background takes the
+    /// job, not held twice). Never both at once — a fit is posted only while calibrating, where
+    /// no redesign is posted, and a re-calibration drops the redesign in flight — so they share
+    /// one hand-over and one result slot.
+    handover: Handover<Work<C::Job>, Answer<C::Design>>,
+    /// The work in flight (or last posted) is calibration's fit: a redesign's design is refused
+    /// for it, and a fit's answer for a redesign.
+    fitting: bool,
     safety: SafetyState,
     /// The controller was in its fallback on the last sample.
     in_fallback: bool,
     /// Power-on calibration's progress (finished from the start without one).
     calibration: CalibrationState,
-    /// Calibration's record to the background and its answer back. The job is only the ticket:
-    /// the record stays in [`Self::calibration`] (the experiment leaves it alone while it waits
-    /// for the fit) and is read from there when the background takes the job — not held twice.
-    fit: Handover<(), Calibrated<C::Design>>,
     /// What calibration found, once adopted.
     calibrated: Option<CalibratedModel>,
     /// Calibrations adopted since power-on.
@@ -459,7 +482,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         if !state.calibration.is_done() {
             // A refused (or interrupted) calibration runs again from where the sled is.
             state.calibration = self.fresh_calibration();
-            state.fit = Handover::new();
+            state.handover = Handover::new();
         }
     }
 
@@ -482,10 +505,10 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             y1: 0,
             y2: 0,
             handover: Handover::new(),
+            fitting: false,
             safety: SafetyState::new(),
             in_fallback: false,
             calibration: self.fresh_calibration(),
-            fit: Handover::new(),
             calibrated: None,
             calibrations: 0,
             watch: calibration::CalibrationWatch::default(),
@@ -518,7 +541,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     pub fn run_background(&self, state: &mut ServoState<C, I>) -> Option<C::Design> {
         if let Some(posted) = state.take_calibration_job() {
             let answer = self.calibrate(&posted.job);
-            state.fit.deliver(posted.ticket, answer);
+            state.deliver_calibration(posted.ticket, answer);
         }
         let posted = state.take_job()?;
         let design = self.redesign(&posted);
@@ -546,23 +569,42 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
 
     /// The second half of [`Self::calibrate`]: from the fit's answer, θ and the controller's
     /// design placed from it (a model the controller refuses is refused as [`Refusal::Gain`]).
+    /// [`Self::first_design_job`], the controller's redesign, then [`Self::calibrated_answer`].
     pub fn calibrated(&self, fitted: Result<CalibratedModel, Refusal>) -> Calibrated<C::Design> {
+        let design = self
+            .first_design_job(&fitted)
+            .map(|job| self.controller.redesign(&job));
+        self.calibrated_answer(fitted, design.as_ref())
+    }
+
+    /// [`Self::calibrated`]'s job: the controller's first design placed from the θ of the fit's
+    /// model (`None`: no model, or no θ from it — refused). A target runs the redesign and
+    /// [`Self::calibrated_answer`] in frames side by side, so that the answer is not on the
+    /// stack under the redesign.
+    pub fn first_design_job(&self, fitted: &Result<CalibratedModel, Refusal>) -> Option<C::Job> {
+        let theta = fitted.as_ref().ok()?.theta()?;
+        Some(self.controller.place_job(&theta))
+    }
+
+    /// [`Self::calibrated`]'s answer from the fit and the design placed by
+    /// [`Self::first_design_job`]'s job (`None` without one): the model, θ and the design, or
+    /// the refusal (the fit's, or [`Refusal::Gain`] without θ or a placed design).
+    pub fn calibrated_answer(
+        &self,
+        fitted: Result<CalibratedModel, Refusal>,
+        design: Option<&C::Design>,
+    ) -> Calibrated<C::Design> {
         let model = match fitted {
             Ok(m) => m,
             Err(r) => return Calibrated::Refused(r),
         };
-        let Some(theta) = model.theta() else {
-            return Calibrated::Refused(Refusal::Gain);
-        };
-        let design = self.controller.redesign(&self.controller.place_job(&theta));
-        if C::placed(&design) {
-            Calibrated::Model {
+        match (model.theta(), design) {
+            (Some(theta), Some(design)) if C::placed(design) => Calibrated::Model {
                 model,
                 theta,
-                design,
-            }
-        } else {
-            Calibrated::Refused(Refusal::Gain)
+                design: *design,
+            },
+            _ => Calibrated::Refused(Refusal::Gain),
         }
     }
 
@@ -650,8 +692,9 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 .insert(crate::ident::status::Status::INPUT_REJECTED);
         }
         match state.handover.due(state.k) {
-            HandoverEvent::Idle => {}
-            HandoverEvent::Adopt(d) => {
+            // A fit is never in flight here (it is posted and adopted while calibrating).
+            HandoverEvent::Idle | HandoverEvent::Adopt(Answer::Fit(_)) => {}
+            HandoverEvent::Adopt(Answer::Redesign(d)) => {
                 self.controller.adopt(&mut state.controller, d);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);
             }
@@ -665,7 +708,6 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             // where the hand-over is not stepped, and it would block every later redesign (its
             // late delivery is refused).
             state.calibration = CalibrationState::new();
-            state.fit = Handover::new();
             state.handover = Handover::new();
             return self.calibration_step(cal, state, measured, u_applied);
         }
@@ -705,9 +747,11 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         if state.handover.is_free() {
             let theta = self.identifier.theta(&state.identifier);
             if let Some(job) = self.controller.redesign_job(&mut state.controller, theta) {
-                state
-                    .handover
-                    .post(job, state.k.wrapping_add(self.settings.latency));
+                state.handover.post(
+                    Work::Redesign(job),
+                    state.k.wrapping_add(self.settings.latency),
+                );
+                state.fitting = false;
                 servo.insert(ServoFlags::REDESIGN_POSTED);
             }
         }
@@ -733,13 +777,15 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         u_applied: Option<SignalI16F16>,
     ) -> ServoOutput<I::Output> {
         let mut servo = ServoFlags::CALIBRATING;
-        match state.fit.due(state.k) {
-            HandoverEvent::Idle => {}
-            HandoverEvent::Adopt(Calibrated::Model {
+        match state.handover.due(state.k) {
+            // A redesign is never in flight here (none is posted while calibrating, and a
+            // re-calibration drops the one in flight).
+            HandoverEvent::Idle | HandoverEvent::Adopt(Answer::Redesign(_)) => {}
+            HandoverEvent::Adopt(Answer::Fit(Calibrated::Model {
                 model,
                 theta,
                 design,
-            }) => {
+            })) => {
                 self.identifier.seed(&mut state.identifier, theta);
                 state.controller = self.controller.new_state();
                 self.controller.adopt(&mut state.controller, design);
@@ -755,7 +801,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
                 state.calibrations = state.calibrations.saturating_add(1);
                 servo.insert(ServoFlags::REDESIGN_ADOPTED);
             }
-            HandoverEvent::Adopt(&Calibrated::Refused(r)) => {
+            HandoverEvent::Adopt(&Answer::Fit(Calibrated::Refused(r))) => {
                 state.calibration.refuse(r);
                 state.safety.latch(StopReason::Calibration(r));
             }
@@ -817,7 +863,12 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
 /// Posts calibration's record to the background fit, due `cal.latency()` samples from now (on
 /// the record's completion, and again when the fit missed its sample).
 fn post_fit<C: Controller, I: Identifier>(cal: &CalibrationConfig, state: &mut ServoState<C, I>) {
-    state.fit.post((), state.k.wrapping_add(cal.latency()));
+    if state
+        .handover
+        .post(Work::Fit, state.k.wrapping_add(cal.latency()))
+    {
+        state.fitting = true;
+    }
 }
 
 impl<C: Controller, I: Identifier> ServoState<C, I> {
@@ -828,18 +879,21 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
 
     /// The background's side of the hand-over: the job posted by a step, once.
     pub fn take_job(&mut self) -> Option<Posted<C::Job>> {
-        self.handover.take_job()
+        self.handover.take_job_if(|w| match w {
+            Work::Redesign(job) => Some(*job),
+            Work::Fit => None,
+        })
     }
 
     /// The background's side of the hand-over: the finished redesign for `ticket`; false when
     /// that job is no longer in flight (its due sample has passed).
     pub fn deliver(&mut self, ticket: Ticket, design: C::Design) -> bool {
-        self.handover.deliver(ticket, design)
+        !self.fitting && self.handover.deliver(ticket, Answer::Redesign(design))
     }
 
     /// True while a redesign is in flight (posted, not yet due).
     pub fn redesign_in_flight(&self) -> bool {
-        !self.handover.is_free()
+        !self.fitting && !self.handover.is_free()
     }
 
     /// The controller's state.
@@ -875,7 +929,7 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
     /// The background's side of calibration's hand-over: the record, once (a copy of the one in
     /// [`Self::calibration`], complete and unchanged while the fit is in flight).
     pub fn take_calibration_job(&mut self) -> Option<Posted<CalibrationRecord>> {
-        let ticket = self.fit.take_job()?.ticket;
+        let ticket = self.take_fit_ticket()?;
         Some(Posted {
             ticket,
             job: *self.calibration.record(),
@@ -885,14 +939,23 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
     /// [`Self::take_calibration_job`] into `record` (a copy straight from the state, no
     /// temporary on the way): the ticket, or `None` (and `record` untouched) without a job.
     pub fn take_calibration_job_into(&mut self, record: &mut CalibrationRecord) -> Option<Ticket> {
-        let ticket = self.fit.take_job()?.ticket;
+        let ticket = self.take_fit_ticket()?;
         *record = *self.calibration.record();
         Some(ticket)
     }
 
     /// The background's side of calibration's hand-over: the answer for `ticket`.
     pub fn deliver_calibration(&mut self, ticket: Ticket, answer: Calibrated<C::Design>) -> bool {
-        self.fit.deliver(ticket, answer)
+        self.fitting && self.handover.deliver(ticket, Answer::Fit(answer))
+    }
+
+    /// The fit's job (its ticket), once.
+    fn take_fit_ticket(&mut self) -> Option<Ticket> {
+        let posted = self.handover.take_job_if(|w| match w {
+            Work::Fit => Some(()),
+            Work::Redesign(_) => None,
+        })?;
+        Some(posted.ticket)
     }
 }
 
@@ -911,10 +974,10 @@ where
             y1: self.y1,
             y2: self.y2,
             handover: self.handover,
+            fitting: self.fitting,
             safety: self.safety,
             in_fallback: self.in_fallback,
             calibration: self.calibration,
-            fit: self.fit,
             calibrated: self.calibrated,
             calibrations: self.calibrations,
             watch: self.watch,

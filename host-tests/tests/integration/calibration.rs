@@ -13,8 +13,9 @@
 //! within a track's quantisation. BENCHMARKS.md (calibration) holds the per-plant figures.
 
 use sledid::PositionI48F16;
+use sledid::control::scheduled::RedesignJob;
 use sledid::servo::calibration::fit;
-use sledid::servo::{CalibrationDesign, Refusal, ServoFlags, StopReason};
+use sledid::servo::{CalibrationDesign, Posted, Refusal, ServoFlags, StopReason};
 use sledid_host::control::calibration::{CalibrationCheck, calibrate, family};
 use sledid_host::control::design::physical_model;
 use sledid_host::control::design::{design_from_prior, identifier_design};
@@ -23,6 +24,7 @@ use sledid_host::control::family_eval::FamilyOptions;
 use sledid_host::control::run::ScheduledLoop;
 use sledid_host::control::seek::run::seek_design;
 use sledid_host::reference::calibration::fit_f64;
+use sledid_host::reference::control::position_from_quanta;
 use sledid_host::twin::{PlantParams, SledController, Twin, TwinParams};
 
 fn quantile(mut v: Vec<f64>, p: f64) -> f64 {
@@ -502,6 +504,56 @@ fn a_command_during_calibration_waits_for_it() {
     );
     // Then the command is followed: after calibration the sled went to it.
     assert!((end - 500.0).abs() <= 1.5, "{end}");
+}
+
+/// Calibration's fit and the redesigns share the servo's one hand-over and result slot: while
+/// the fit is posted no redesign job is offered and a design delivered for the fit's ticket is
+/// refused; once calibrated, a fit's answer delivered for a redesign's ticket is refused. Trips on
+/// a slot that takes either answer for the other's ticket (the fit's answer would be adopted as
+/// gains, or a design as a calibration), or on a run without a fit or a redesign to check.
+#[test]
+fn the_fit_and_the_redesigns_share_one_hand_over_without_mixing_answers() {
+    let params = TwinParams::default();
+    let d = seek_design(design_from_prior(&params, &PlantParams::default()).unwrap());
+    let fs = d.baseline.u_full_scale_v;
+    let mut servo = ScheduledLoop::new(&d, &identifier_design(&d))
+        .unwrap()
+        .with_calibration(Some(CalibrationDesign::default()))
+        .unwrap();
+    let mut twin = Twin::new(params, 5).unwrap();
+    let (mut fits, mut redesigns) = (0, 0);
+    let mut c = |r: f64, y: f64| {
+        let (config, state) = (&servo.config, &mut servo.state);
+        let out = config.step(state, position_from_quanta(r), position_from_quanta(y));
+        if let Some(posted) = state.take_calibration_job() {
+            assert!(!state.redesign_in_flight() && state.take_job().is_none());
+            let skip = Posted {
+                ticket: posted.ticket,
+                job: RedesignJob::Skip,
+            };
+            assert!(!state.deliver(posted.ticket, config.redesign(&skip)));
+            assert!(state.deliver_calibration(posted.ticket, config.calibrate(&posted.job)));
+            fits += 1;
+        }
+        if let Some(posted) = state.take_job() {
+            assert!(state.redesign_in_flight());
+            let refused = config.calibrated(Err(Refusal::Fit));
+            assert!(!state.deliver_calibration(posted.ticket, refused));
+            assert!(state.deliver(posted.ticket, config.redesign(&posted)));
+            redesigns += 1;
+        }
+        out.u.to_f64() * fs
+    };
+    for _ in 0..8_000 {
+        if twin.step(&mut c).is_none() {
+            break;
+        }
+    }
+    assert!(
+        fits >= 1 && redesigns >= 1,
+        "{fits} fits, {redesigns} redesigns"
+    );
+    assert_eq!(servo.state.calibrations(), 1, "the fit adopted");
 }
 
 /// `sledid seek --inject`'s faults through the product's run (`run_seeks_with_faults`, nominal

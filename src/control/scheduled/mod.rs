@@ -269,15 +269,16 @@ impl ScheduledDesign {
             .map_err(|_| ConfigError::InitialModel(a))?;
             let mut gains = super::placement::place(model, &self.prior_placement)
                 .map_err(|_| ConfigError::InitialModel(b))?;
-            if let Some(d) = seek {
-                gains.seek = config
-                    .seek_plan(
-                        model,
-                        compensation_level(self.compensation.as_ref()),
-                        d.alpha_prior,
-                        d.velocity_pole_prior,
-                    )
-                    .ok_or(ConfigError::SeekDesign(d.alpha_prior))?;
+            if let Some(d) = seek
+                && !config.seek_plan_into(
+                    &mut gains.seek,
+                    model,
+                    compensation_level(self.compensation.as_ref()),
+                    d.alpha_prior,
+                    d.velocity_pole_prior,
+                )
+            {
+                return Err(ConfigError::SeekDesign(d.alpha_prior));
             }
             config.prior_gains = Some(gains);
         }
@@ -615,13 +616,24 @@ impl ScheduledConfig {
     }
 
     /// The time-optimal seek plan of `model` (u_c: the Coulomb level compensated, fraction of full
-    /// scale) braking at `alpha` with velocity pole `pole`; `None` when the model cannot brake or
-    /// a gain does not fit (or seeks follow the reference).
+    /// scale) braking at `alpha` with velocity pole `pole`, written into `plan` (in place: the
+    /// redesign's frame holds one plan); false (and `plan` [`SeekPlan::NONE`]) when the model
+    /// cannot brake or a gain does not fit (or seeks follow the reference).
     #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
-    fn seek_plan(&self, model: VelocityModel, u_c: f32, alpha: f64, pole: f64) -> Option<SeekPlan> {
-        self.seek?;
+    fn seek_plan_into(
+        &self,
+        plan: &mut SeekPlan,
+        model: VelocityModel,
+        u_c: f32,
+        alpha: f64,
+        pole: f64,
+    ) -> bool {
+        if self.seek.is_none() {
+            *plan = SeekPlan::NONE;
+            return false;
+        }
         let u_max = self.baseline.u_limit().to_f64() as f32;
-        SeekPlan::design(model.a, model.b, u_c, u_max, alpha as f32, pole as f32)
+        plan.design_into(model.a, model.b, u_c, u_max, alpha as f32, pole as f32)
     }
 
     /// Time-optimal seeks, if configured.
@@ -666,6 +678,51 @@ impl ScheduledConfig {
             *t = ParamI12F20::from_raw(sat_i32(x, &mut false));
         }
         scaled
+    }
+
+    /// [`Controller::redesign`]'s placement of θ (its first `len` entries, the gain terms
+    /// scaled by `gain_ratio`, I16F16) from `source`: the gains, with `identify_friction` the
+    /// compensation of the identified Coulomb level (the seek plan's u_c), written into
+    /// `result`; the checked model, or why it was refused (`result`'s gains and compensation
+    /// are then left for the caller to clear).
+    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+    fn place_into(
+        &self,
+        theta: &[ParamI12F20; MAX_MODEL_PARAMS],
+        len: u8,
+        source: ModelSource,
+        gain_ratio: i32,
+        result: &mut RedesignResult,
+    ) -> Result<VelocityModel, Rejection> {
+        let scaled = self.scale_gain_terms(theta, gain_ratio);
+        let (linear, c) = self.split_theta(scaled.get(..usize::from(len)).unwrap_or(&[]));
+        let mut m = super::placement::reduce(linear, self.na, &self.supervisor)?;
+        let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
+        // b_sum > 0: reduce refuses a non-positive gain (Σb has the sign of b).
+        m.coulomb_fs = ParamI12F20::from_raw(c).to_f32() / b_sum;
+        // Built once: the result's compensation and the seek plan's u_c.
+        if self.identify_friction {
+            result.compensation = coulomb_compensation(m.coulomb_fs);
+        }
+        let g = result
+            .gains
+            .insert(super::placement::place(m, &self.placement)?);
+        if let Some(d) = self.seek {
+            let u_c = if self.identify_friction {
+                compensation_level(result.compensation.as_ref())
+            } else {
+                compensation_level(self.compensation.as_ref())
+            };
+            let (alpha, pole) = match source {
+                ModelSource::Identified => (d.alpha, d.velocity_pole),
+                ModelSource::Calibrated => (d.alpha_calibrated, d.velocity_pole_calibrated),
+                ModelSource::Learnt => (d.alpha_calibrated, d.velocity_pole_learnt),
+            };
+            if !self.seek_plan_into(&mut g.seek, m, u_c, alpha, pole) {
+                return Err(Rejection::GainFormat);
+            }
+        }
+        Ok(m)
     }
 
     /// Supervisor bookkeeping of one identifier report; true when it distrusts the model now.
@@ -1310,72 +1367,33 @@ impl Controller for ScheduledConfig {
     }
 
     /// θ → checked velocity model → placed gains (f32, outside the interrupt); with
-    /// `identify_friction`, the Coulomb level u_c = c/Σb → its input compensation.
-    #[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+    /// `identify_friction`, the Coulomb level u_c = c/Σb → its input compensation. The result
+    /// is built in place (one design in the frame, not a placed copy moved into it).
     fn redesign(&self, job: &RedesignJob) -> RedesignResult {
         let (source, gain_ratio) = job.origin();
+        let mut result = RedesignResult {
+            outcome: Redesign::Skipped,
+            gains: None,
+            compensation: None,
+            source,
+            gain_ratio,
+        };
         let placed = match job {
             RedesignJob::Untrusted => Err(Rejection::Untrusted),
-            RedesignJob::Skip => {
-                return RedesignResult {
-                    outcome: Redesign::Skipped,
-                    gains: None,
-                    compensation: None,
-                    source,
-                    gain_ratio,
-                };
-            }
+            RedesignJob::Skip => return result,
             RedesignJob::Place { theta, len, .. } => {
-                let scaled = self.scale_gain_terms(theta, gain_ratio);
-                let (linear, c) = self.split_theta(scaled.get(..usize::from(*len)).unwrap_or(&[]));
-                super::placement::reduce(linear, self.na, &self.supervisor).and_then(|mut m| {
-                    let b_sum: f32 = linear.iter().skip(self.na).map(|p| p.to_f32()).sum();
-                    // b_sum > 0: reduce refuses a non-positive gain (Σb has the sign of b).
-                    m.coulomb_fs = ParamI12F20::from_raw(c).to_f32() / b_sum;
-                    let mut g = super::placement::place(m, &self.placement)?;
-                    if let Some(d) = self.seek {
-                        let u_c = if self.identify_friction {
-                            coulomb_compensation(m.coulomb_fs)
-                                .as_ref()
-                                .map_or(0.0, |map| compensation_level(Some(map)))
-                        } else {
-                            compensation_level(self.compensation.as_ref())
-                        };
-                        let (alpha, pole) = match source {
-                            ModelSource::Identified => (d.alpha, d.velocity_pole),
-                            ModelSource::Calibrated => {
-                                (d.alpha_calibrated, d.velocity_pole_calibrated)
-                            }
-                            ModelSource::Learnt => (d.alpha_calibrated, d.velocity_pole_learnt),
-                        };
-                        g.seek = self
-                            .seek_plan(m, u_c, alpha, pole)
-                            .ok_or(Rejection::GainFormat)?;
-                    }
-                    Ok((m, g))
-                })
+                self.place_into(theta, *len, source, gain_ratio, &mut result)
             }
         };
         match placed {
-            Ok((model, gains)) => RedesignResult {
-                outcome: Redesign::Applied(model),
-                gains: Some(gains),
-                compensation: if self.identify_friction {
-                    coulomb_compensation(model.coulomb_fs)
-                } else {
-                    None
-                },
-                source,
-                gain_ratio,
-            },
-            Err(r) => RedesignResult {
-                outcome: Redesign::Rejected(r),
-                gains: None,
-                compensation: None,
-                source,
-                gain_ratio,
-            },
+            Ok(model) => result.outcome = Redesign::Applied(model),
+            Err(r) => {
+                result.outcome = Redesign::Rejected(r);
+                result.gains = None;
+                result.compensation = None;
+            }
         }
+        result
     }
 
     /// Placed gains replace the gains in use and end the fallback; a refusal latches the fallback
