@@ -32,8 +32,8 @@ use sledid::SignalI16F16;
 use sledid::control::scheduled::RedesignResult;
 use sledid::error::ConfigError;
 use sledid::servo::health::{
-    FeedFlags, HealthConfig, HealthDesign, HealthFeed, HealthQueue, HealthReference, HealthSample,
-    HealthState, HealthVerdict,
+    FeedFlags, HealthConfig, HealthFeed, HealthQueue, HealthReference, HealthSample, HealthState,
+    HealthVerdict,
 };
 use sledid::servo::{Calibrated, ServoFlags};
 
@@ -51,12 +51,13 @@ pub type HealthProducer<'q> = Producer<'q, HealthSample, HEALTH_Q>;
 /// The background's end of [`Queue`].
 pub type HealthConsumer<'q> = Consumer<'q, HealthSample, HEALTH_Q>;
 
-/// The estimator's configuration: [`HealthDesign::default`] (on both sides; not in the words).
+/// The estimator's configuration: [`HealthDesign::default`](sledid::servo::health::HealthDesign::default) built and quantised on the host,
+/// decoded from [`HEALTH_WORDS`](crate::HEALTH_WORDS) and checked here (no `f64` on target).
 ///
 /// # Errors
-/// The design's (none for the default).
+/// The words' (none for the committed ones: `firmware_qemu`'s `loop_words_are_up_to_date`).
 pub fn health_config() -> Result<HealthConfig, ConfigError> {
-    HealthDesign::default().build()
+    HealthConfig::from_words(&crate::HEALTH_WORDS)
 }
 
 /// The interrupt's side: the pair in progress and the drop count.

@@ -58,4 +58,4 @@ pub use ticker::{
     FrameSensor, NoReading, PWM_MAX_DUTY, PilPin, PilPwm, RESULT_PREFIX, Summary, THETA_N,
     TIMING_PREFIX, Ticker,
 };
-pub use words::{LOOP_WORDS, config, config_into};
+pub use words::{HEALTH_WORDS, LOOP_WORDS, config, config_into};

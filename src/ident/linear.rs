@@ -429,7 +429,8 @@ impl Words for Structure {
 
 impl<const N: usize> LinearDesign<N> {
     /// Builds the design and appends its configuration words ([`crate::words`]): structure, na,
-    /// nk, the Coulomb term, θ₀ (raw I12F20), the pole radius if any, then the RLS design.
+    /// nk, the Coulomb term, θ₀ (raw I12F20), the pole radius if any, then the quantised RLS
+    /// settings ([`RlsConfig`]'s words).
     ///
     /// # Errors
     /// [`Self::build`]'s errors, or [`ConfigError::Words`] when `w`'s buffer is full.
@@ -441,16 +442,17 @@ impl<const N: usize> LinearDesign<N> {
         c.coulomb.put(w)?;
         c.theta0.put(w)?;
         c.radius.put(w)?;
-        self.rls.put(w)
+        c.rls.put(w)
     }
 }
 
 impl<const N: usize> LinearConfig<N> {
     /// Reads the words of [`LinearDesign::put_words`] with [`LinearDesign::build`]'s checks
-    /// (orders, delay, a pole radius for OE and a stable θ₀ inside it) and builds the RLS design.
+    /// (orders, delay, a pole radius for OE and a stable θ₀ inside it) and the RLS settings'
+    /// ([`RlsConfig::validate`]): no `f64` arithmetic.
     ///
     /// # Errors
-    /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
+    /// [`ConfigError::Words`] at the first bad word, or the first setting out of range.
     pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
         let structure = Structure::take(r);
         let na = usize::take(r);
@@ -458,15 +460,16 @@ impl<const N: usize> LinearConfig<N> {
         let coulomb = bool::take(r);
         let theta0 = <[ParamI12F20; N]>::take(r);
         let radius = <Option<PoleRadius> as Words>::take(r);
-        let rls = RlsDesign::take(r);
+        let rls = RlsConfig::take(r);
         r.status()?;
+        rls.validate()?;
         let config = Self {
             structure,
             na,
             nk,
             coulomb,
             theta0,
-            rls: rls.build()?,
+            rls,
             radius,
         };
         config.validate()?;

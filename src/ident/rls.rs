@@ -110,7 +110,8 @@ use crate::num::wide::{
     leading_zeros_compact, leading_zeros_near, leading_zeros_u32, mul_hi_round_i32, mul_hi_u32,
     mul_i32_wide, mul_i32_wide_compact, mul_u32_wide, mul_u32_wide_compact, recip_q61,
 };
-use crate::words::{WordReader, WordWriter, Words};
+
+mod words;
 
 /// Fraction bits of the U factor (I8F24: |Uᵢⱼ| < 128; the nonlinear models' regressors need more
 /// than I4F28's 8, measured: `tests/integration/nonlinear.rs`, `tests/integration/nonlinear_units.rs`).
@@ -293,7 +294,7 @@ impl RlsDesign {
                 Bound::ConstantTrace(positive_dyadic(trace, ConfigError::CovarianceLimit(trace))?)
             }
         };
-        Ok(RlsConfig {
+        let config = RlsConfig {
             lambda,
             lambda_inv: lambda.recip(),
             p0,
@@ -303,7 +304,10 @@ impl RlsDesign {
             bound,
             outlier_i16f16: outlier.raw().unsigned_abs(),
             outlier_limit: self.outlier_limit,
-        })
+        };
+        // The decoded words' checks: a design this far is within them (one copy of the rules).
+        config.validate()?;
+        Ok(config)
     }
 }
 
@@ -1258,71 +1262,6 @@ impl RlsConfig {
                 scale_d(d, c.mul_trunc(tr.recip()));
                 Status::TRACE_NORMALISED
             }
-        }
-    }
-}
-
-/// Words: the variant's index (None 0, TraceLimit 1, DiagonalLimit 2, ConstantTrace 3, FactorCap 4),
-/// then its limit.
-impl Words for AntiWindup {
-    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
-        match *self {
-            Self::None => w.word(0),
-            Self::TraceLimit { max } => {
-                w.word(1)?;
-                max.put(w)
-            }
-            Self::DiagonalLimit { max } => {
-                w.word(2)?;
-                max.put(w)
-            }
-            Self::ConstantTrace { trace } => {
-                w.word(3)?;
-                trace.put(w)
-            }
-            Self::FactorCap { max } => {
-                w.word(4)?;
-                max.put(w)
-            }
-        }
-    }
-    fn take(r: &mut WordReader<'_>) -> Self {
-        match r.word() {
-            0 => Self::None,
-            1 => Self::TraceLimit { max: f64::take(r) },
-            2 => Self::DiagonalLimit { max: f64::take(r) },
-            3 => Self::ConstantTrace {
-                trace: f64::take(r),
-            },
-            4 => Self::FactorCap { max: f64::take(r) },
-            _ => {
-                r.fail();
-                Self::None
-            }
-        }
-    }
-}
-
-/// The design itself (validated when it is built: see the module doc).
-impl Words for RlsDesign {
-    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
-        self.lambda.put(w)?;
-        self.p0.put(w)?;
-        self.dead_zone.put(w)?;
-        self.excitation_threshold.put(w)?;
-        self.anti_windup.put(w)?;
-        self.outlier_threshold.put(w)?;
-        self.outlier_limit.put(w)
-    }
-    fn take(r: &mut WordReader<'_>) -> Self {
-        Self {
-            lambda: f64::take(r),
-            p0: f64::take(r),
-            dead_zone: f64::take(r),
-            excitation_threshold: f64::take(r),
-            anti_windup: AntiWindup::take(r),
-            outlier_threshold: f64::take(r),
-            outlier_limit: u16::take(r),
         }
     }
 }

@@ -80,6 +80,7 @@ use crate::ident::status::Status;
 use crate::num::boundary::PositionI48F16;
 use crate::num::fixed::{PARAM_FRAC_BITS, ParamI12F20, SignalI16F16, sat_i32, shr_round_i64};
 use crate::num::wide::mul_i32_wide;
+use crate::words::{WordReader, WordWriter, Words};
 
 /// Parameters θ = [a², γ₁, γ₂, γ₃, γ₄, w].
 pub const HEALTH_N: usize = 6;
@@ -192,7 +193,7 @@ impl HealthDesign {
         }
         #[allow(clippy::float_arithmetic)] // design time
         let min_pole2 = param(pole * pole)?;
-        Ok(HealthConfig {
+        let config = HealthConfig {
             rls,
             alpha_i8f24,
             gate_i16f16,
@@ -200,7 +201,96 @@ impl HealthDesign {
             drift_rel: param(self.drift_rel)?,
             min_updates: self.min_updates,
             min_pole2,
-        })
+        };
+        // The decoded words' checks (one copy of the rules).
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+/// Words of a [`HealthConfig`] frame at most: 3 of framing and 21 of payload.
+pub const HEALTH_WORDS_MAX: usize = 24;
+
+impl HealthConfig {
+    /// The invariants [`HealthDesign::build`] establishes on the quantised values: the RLS
+    /// settings' ([`RlsConfig::validate`]), a positive slope α, a non-negative gate and drift
+    /// thresholds, min_pole² in [0, 1).
+    ///
+    /// # Errors
+    /// The RLS settings' error, or [`ConfigError::Health`] (its value `NaN`: the design's `f64`
+    /// is not on target).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.rls.validate()?;
+        let ok = self.alpha_i8f24 > 0
+            && self.gate_i16f16 >= 0
+            && self.drift_fs.raw() >= 0
+            && self.drift_rel.raw() >= 0
+            && (0..1 << PARAM_FRAC_BITS).contains(&self.min_pole2.raw());
+        if ok {
+            Ok(())
+        } else {
+            Err(ConfigError::Health(f64::NAN))
+        }
+    }
+
+    /// The configuration as a sealed frame of configuration words ([`crate::words`]) in `out`
+    /// (at least [`HEALTH_WORDS_MAX`] words); returns its length.
+    ///
+    /// # Errors
+    /// [`ConfigError::Words`] when `out` is too short.
+    pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
+        let len = out.len();
+        let payload = out.get_mut(2..).ok_or(ConfigError::Words { at: len })?;
+        let mut w = WordWriter::new(payload);
+        self.put(&mut w).map_err(|e| match e {
+            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
+            e => e,
+        })?;
+        let payload_len = w.len();
+        crate::words::seal(out, payload_len)
+    }
+
+    /// Decodes a frame of [`Self::to_words`] and checks it ([`Self::validate`]): what a target
+    /// runs instead of [`HealthDesign::build`] (no `f64`).
+    ///
+    /// # Errors
+    /// The frame's errors ([`crate::words::open`]), [`ConfigError::Words`] at the first bad
+    /// word (an index into the frame), or [`Self::validate`]'s.
+    pub fn from_words(words: &[u32]) -> Result<Self, ConfigError> {
+        let payload = crate::words::open(words)?;
+        let mut r = WordReader::new(payload);
+        let config = Self::take(&mut r);
+        r.finish().map_err(|e| match e {
+            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
+            e => e,
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+/// The RLS settings' words, then α (I8F24 raw), the gate (I16F16 raw), the drift thresholds,
+/// the update count and min_pole² (I12F20 raw).
+impl Words for HealthConfig {
+    fn put(&self, w: &mut WordWriter<'_>) -> Result<(), ConfigError> {
+        self.rls.put(w)?;
+        self.alpha_i8f24.put(w)?;
+        self.gate_i16f16.put(w)?;
+        self.drift_fs.put(w)?;
+        self.drift_rel.put(w)?;
+        self.min_updates.put(w)?;
+        self.min_pole2.put(w)
+    }
+    fn take(r: &mut WordReader<'_>) -> Self {
+        Self {
+            rls: RlsConfig::take(r),
+            alpha_i8f24: i32::take(r),
+            gate_i16f16: i32::take(r),
+            drift_fs: ParamI12F20::take(r),
+            drift_rel: ParamI12F20::take(r),
+            min_updates: u32::take(r),
+            min_pole2: ParamI12F20::take(r),
+        }
     }
 }
 
@@ -559,5 +649,59 @@ impl HealthState {
     /// Samples popped since [`HealthConfig::new_state`] (saturating).
     pub fn samples(&self) -> u32 {
         self.samples
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default design round-trips through its words; a single-bit flip anywhere, a short
+    /// frame and a re-sealed invalid value (α = 0, a dead zone above the outlier gate) are
+    /// refused. Trips on a `take` that misses a field, a `validate` that misses a check `build`
+    /// makes, or words that do not carry the quantised RLS settings exactly.
+    #[test]
+    fn the_health_configuration_round_trips_through_its_words() {
+        let config = HealthDesign::default().build().unwrap();
+        let mut buf = [0u32; HEALTH_WORDS_MAX];
+        let n = config.to_words(&mut buf).unwrap();
+        let words = &buf[..n];
+        assert_eq!(HealthConfig::from_words(words), Ok(config));
+        for at in 0..n {
+            for bit in 0..32 {
+                let mut bad = words.to_vec();
+                bad[at] ^= 1 << bit;
+                assert!(
+                    HealthConfig::from_words(&bad).is_err(),
+                    "word {at} bit {bit}"
+                );
+            }
+        }
+        assert!(HealthConfig::from_words(&words[..n - 1]).is_err());
+        let resealed = |c: HealthConfig| {
+            let mut out = [0u32; HEALTH_WORDS_MAX];
+            let mut w = WordWriter::new(&mut out[2..]);
+            c.put(&mut w).unwrap();
+            let len = w.len();
+            let n = crate::words::seal(&mut out, len).unwrap();
+            HealthConfig::from_words(&out[..n])
+        };
+        let mut bad = config;
+        bad.alpha_i8f24 = 0;
+        assert!(matches!(resealed(bad), Err(ConfigError::Health(_))));
+        let mut bad = config;
+        bad.rls = RlsDesign {
+            dead_zone: 2.0,
+            outlier_threshold: 3.0,
+            ..HealthDesign::default().rls
+        }
+        .build()
+        .unwrap();
+        assert_eq!(resealed(bad).map(|c| c.rls), Ok(bad.rls));
+        bad.rls.outlier_for_test(1 << 17);
+        assert!(matches!(
+            resealed(bad),
+            Err(ConfigError::OutlierThreshold(_))
+        ));
     }
 }

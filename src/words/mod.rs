@@ -24,9 +24,8 @@
 //! up to date; every truncation, extension and single-bit flip is refused; re-sealed invalid
 //! values are refused by the build's checks; never a panic).
 //!
-//! The RLS settings carry their [`crate::ident::rls::RlsDesign`] (its `f64` fields as bits) and
-//! `take` builds it ([`crate::ident::rls::RlsDesign::build`], comparisons and a few conversions:
-//! no `f64` division) — the same validation again.
+//! The RLS settings carry the quantised [`crate::ident::rls::RlsConfig`] (λ, p₀ and the limits as
+//! mantissa and exponent), checked by its `validate`: no `f64` on target for them.
 //!
 //! # Encoding
 //! | field | words |

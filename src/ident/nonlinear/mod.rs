@@ -335,7 +335,7 @@ impl<const N: usize> Estimator<N> for NonlinearConfig<N> {
 
 impl<const N: usize> NonlinearDesign<N> {
     /// Builds the design and appends its configuration words ([`crate::words`]): structure, θ₀
-    /// (raw I12F20), the pole radius, then the RLS design.
+    /// (raw I12F20), the pole radius, then the quantised RLS settings ([`RlsConfig`]'s words).
     ///
     /// # Errors
     /// [`Self::build`]'s errors, or [`ConfigError::Words`] when `w`'s buffer is full.
@@ -344,27 +344,28 @@ impl<const N: usize> NonlinearDesign<N> {
         c.structure.put(w)?;
         c.theta0.put(w)?;
         c.radius.put(w)?;
-        self.rls.put(w)
+        c.rls.put(w)
     }
 }
 
 impl<const N: usize> NonlinearConfig<N> {
     /// Reads the words of [`NonlinearDesign::put_words`] with [`NonlinearDesign::build`]'s checks
-    /// (N parameters for the structure, a stable θ₀ inside the pole radius) and builds the RLS
-    /// design.
+    /// (N parameters for the structure, a stable θ₀ inside the pole radius) and the RLS
+    /// settings' ([`RlsConfig::validate`]): no `f64` arithmetic.
     ///
     /// # Errors
-    /// [`ConfigError::Words`] at the first bad word, or the RLS design's error.
+    /// [`ConfigError::Words`] at the first bad word, or the first setting out of range.
     pub fn take_words(r: &mut WordReader<'_>) -> Result<Self, ConfigError> {
         let structure = NonlinearStructure::take(r);
         let theta0 = <[ParamI12F20; N]>::take(r);
         let radius = PoleRadius::take(r);
-        let rls = RlsDesign::take(r);
+        let rls = RlsConfig::take(r);
         r.status()?;
+        rls.validate()?;
         let config = Self {
             structure,
             theta0,
-            rls: rls.build()?,
+            rls,
             radius,
         };
         config.validate()?;
