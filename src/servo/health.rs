@@ -182,7 +182,10 @@ impl HealthDesign {
         let alpha_i8f24 = setting(slope, |x| {
             let s = ParamI12F20::from_f64(x).ok()?;
             s.raw().checked_mul(1 << (ARG_FRAC_BITS - PARAM_FRAC_BITS))
-        })?;
+        })
+        .ok()
+        .filter(|&a| a > 0) // a slope below I12F20's resolution
+        .ok_or(ConfigError::Health(slope))?;
         let gate_i16f16 = setting(self.gate_speed_quanta, |x| {
             SignalI16F16::from_f64(x).ok().map(SignalI16F16::raw)
         })?;
@@ -686,6 +689,15 @@ mod tests {
             let n = crate::words::seal(&mut out, len).unwrap();
             HealthConfig::from_words(&out[..n])
         };
+        let tiny = HealthDesign {
+            neuron_slope_per_quantum: 1e-7,
+            ..HealthDesign::default()
+        };
+        assert_eq!(
+            tiny.build(),
+            Err(ConfigError::Health(1e-7)),
+            "α quantised to 0"
+        );
         let mut bad = config;
         bad.alpha_i8f24 = 0;
         assert!(matches!(resealed(bad), Err(ConfigError::Health(_))));
