@@ -168,8 +168,11 @@ fn calibrated_seeks_on_the_plant_family() {
         // reported all the same — settled after the seek error's budget (late, not lost), or off
         // track after settling (the reading left ±1 quantum and came back before the window's
         // last 10 ms; `servo::calibration::watch`), or hunting after settling (four drive
-        // pulses past the calibrated breakaway level, each the other way) — measured 62 / 65 of
-        // 10,000 since the hunting rule (seed 2: 66; 58 / 64 / 58 before it: the rule flags 2 of the wider
+        // pulses past the calibrated breakaway level, each the other way) — measured 79 / 71 of
+        // 10,000 since the hunting level is capped at 3 × the fitted Coulomb level (seed 2: 75;
+        // 62 / 65 / 66 before the cap, which then left 3 / 4 of the wider family's failing plants
+        // unflagged, 1 / 3 with it; at 2 × Coulomb 86 / 88 and 0 / 3); 58 / 64 / 58 before the
+        // hunting rule (the rule flags 2 of the wider
         // family's 9 failing plants that nothing flagged, seeds 1 / 7; at three pulses 84 / 76;
         // seeds 2–6 before it: 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0
         // (39 / 35 / 30 at p 0.15 before it, 44 / 35 / 29 with the learner at p 0.15 — whose
@@ -178,6 +181,6 @@ fn calibrated_seeks_on_the_plant_family() {
         // hold (thousands), or that hunts at three pulses (84 / 76; counted either way, a fine
         // step's chatter too: 98 / 87).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
-        assert!(s.settled_reported <= 65, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 79, "seed {seed}: {s:?}");
     }
 }

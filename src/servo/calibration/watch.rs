@@ -48,7 +48,10 @@
 //! one way (its drive may cross the level several times as a flickering reading kicks the
 //! derivative: counted once), at most two per seek
 //! ([`crate::control::scheduled::rest::FINE_STEPS_MAX`]), each perhaps braked the other way:
-//! four alternating pulses are a hunt. Measured on the wider family's (`--wide`) failing plants
+//! four alternating pulses are a hunt. The level is the breakaway drive calibration's search
+//! found, capped at [`STICTION_MAX`] × the fitted Coulomb level: on heavy sleds the search finds
+//! the level up to 3× too high (the sled has not moved a quantum before the next, higher level),
+//! and a hunt kicking below it went unflagged. Measured on the wider family's (`--wide`) failing plants
 //! with nothing flagged and on the healthy family's settled seeks reported (three pulses: more
 //! of the former flagged, twice the latter's rise): BENCHMARKS.md, "Seek errors".
 //!
@@ -72,6 +75,11 @@ pub const SETTLED_SAMPLES: u16 = 22;
 /// 14 / 10 to 7 / 6, while the healthy family's settled seeks reported rose from 2 / 2 to
 /// 3 / 12 of 10,000 (BENCHMARKS.md, "Seek errors").
 pub const REPORT_EARLIER: u32 = 154;
+
+/// The hunting level is at most this many times the fitted Coulomb level: the family's largest
+/// stiction ratio (1.2–3 × Coulomb), so a drive past it would break any sled of the family away
+/// (module doc, "Hunting after settling").
+pub const STICTION_MAX: f32 = 3.0;
 
 /// Drive pulses past the calibrated breakaway level after a command has settled that make it a
 /// hunt (module doc, "Hunting after settling").
@@ -112,7 +120,8 @@ pub struct CalibrationWatch {
     coulomb_fs_bits: u32,
     /// Re-calibrations in a row that found the same sled (≤ [`FRUITLESS_MAX`]).
     fruitless: u8,
-    /// The calibrated breakaway drive (+, −), I16F16 raw full scale (`i32::MAX`: none found).
+    /// The hunting level (+, −): the calibrated breakaway drive, at most [`STICTION_MAX`] × the
+    /// fitted Coulomb level, I16F16 raw full scale (`i32::MAX`: none found).
     breakaway_i16f16: [i32; 2],
     /// Pulses past it since the command settled (≤ 255).
     pulses: u8,
@@ -139,7 +148,19 @@ impl CalibrationWatch {
             r: i64::MIN,
             gain_k_bits: model.gain_k.to_bits(),
             coulomb_fs_bits: model.coulomb_mean_fs().to_bits(),
-            breakaway_i16f16: model.breakaway_fs.map(libm::fabsf).map(|b| {
+            breakaway_i16f16: {
+                let ([cp, cn], [bp, bn]) = (model.coulomb_fs, model.breakaway_fs);
+                [(cp, bp), (cn, bn)]
+            }
+            .map(|(c, b)| {
+                let b = libm::fabsf(b);
+                // The search's level, at most the family's largest stiction over the fitted
+                // Coulomb level (module doc, "Hunting after settling").
+                let b = if c.is_finite() && c > 0.0 {
+                    b.min(STICTION_MAX * c)
+                } else {
+                    b
+                };
                 if b.is_finite() && b > 0.0 {
                     (b.min(2.0) * 65536.0) as i32
                 } else {
@@ -347,6 +368,34 @@ mod tests {
         assert!(!w.step(2 * r, r));
         assert!(!w.seek_error(), "a new command");
         assert_eq!(w.pulses(), 0);
+    }
+
+    /// A breakaway level the search found far above the fitted Coulomb level (a heavy sled that
+    /// had not moved before the next level) is capped at STICTION_MAX × Coulomb: four alternating
+    /// pulses between the cap and the search's level report a hunt; without a fitted Coulomb
+    /// level they stay below the watch's level. Trips on a watch at the search's level alone
+    /// (the wider family's hunts that went unflagged).
+    #[test]
+    fn the_hunting_level_is_capped_by_the_fitted_coulomb_level() {
+        let pulse = (0.01f32 * 65536.0) as i32; // past 3 × 0.002, below 0.03
+        for (coulomb, reported) in [(0.002f32, true), (0.0, false)] {
+            let mut w = CalibrationWatch::arm(&CalibratedModel {
+                coulomb_fs: [coulomb; 2],
+                breakaway_fs: [0.03, -0.03],
+                ..model()
+            });
+            let r = 320 * Q;
+            assert!(!w.step(r, 0));
+            for _ in 0..SETTLED_SAMPLES + 10 {
+                assert!(!w.step(r, r));
+            }
+            for k in 0..4 {
+                w.drive(if k % 2 == 0 { pulse } else { -pulse });
+                w.drive(0);
+                assert!(!w.step(r, r));
+            }
+            assert_eq!(w.seek_error(), reported, "Coulomb {coulomb}");
+        }
     }
 
     /// Off track after settling, long before the budget (122 samples): a reading outside ±1
