@@ -242,15 +242,7 @@ impl HealthConfig {
     /// # Errors
     /// [`ConfigError::Words`] when `out` is too short.
     pub fn to_words(&self, out: &mut [u32]) -> Result<usize, ConfigError> {
-        let len = out.len();
-        let payload = out.get_mut(2..).ok_or(ConfigError::Words { at: len })?;
-        let mut w = WordWriter::new(payload);
-        self.put(&mut w).map_err(|e| match e {
-            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
-            e => e,
-        })?;
-        let payload_len = w.len();
-        crate::words::seal(out, payload_len)
+        crate::words::put_frame(self, out)
     }
 
     /// Decodes a frame of [`Self::to_words`] and checks it ([`Self::validate`]): what a target
@@ -260,13 +252,7 @@ impl HealthConfig {
     /// The frame's errors ([`crate::words::open`]), [`ConfigError::Words`] at the first bad
     /// word (an index into the frame), or [`Self::validate`]'s.
     pub fn from_words(words: &[u32]) -> Result<Self, ConfigError> {
-        let payload = crate::words::open(words)?;
-        let mut r = WordReader::new(payload);
-        let config = Self::take(&mut r);
-        r.finish().map_err(|e| match e {
-            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
-            e => e,
-        })?;
+        let config: Self = crate::words::take_frame(words)?;
         config.validate()?;
         Ok(config)
     }
@@ -683,10 +669,7 @@ mod tests {
         assert!(HealthConfig::from_words(&words[..n - 1]).is_err());
         let resealed = |c: HealthConfig| {
             let mut out = [0u32; HEALTH_WORDS_MAX];
-            let mut w = WordWriter::new(&mut out[2..]);
-            c.put(&mut w).unwrap();
-            let len = w.len();
-            let n = crate::words::seal(&mut out, len).unwrap();
+            let n = crate::words::put_frame(&c, &mut out).unwrap();
             HealthConfig::from_words(&out[..n])
         };
         let tiny = HealthDesign {

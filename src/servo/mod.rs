@@ -417,10 +417,7 @@ impl ServoDesign {
         let len = out.len();
         let payload = out.get_mut(2..).ok_or(ConfigError::Words { at: len })?;
         let mut w = WordWriter::new(payload);
-        let at = |e: ConfigError| match e {
-            ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
-            e => e,
-        };
+        let at = crate::words::in_frame;
         self.velocity.put_words(&mut w).map_err(at)?;
         built.settings.put(&mut w).map_err(at)?;
         built.safety.put(&mut w).map_err(at)?;
@@ -1041,11 +1038,7 @@ impl SledServo {
         });
         let done = r
             .finish()
-            .map_err(|e| match e {
-                // Indices into the frame, not the payload.
-                ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
-                e => e,
-            })
+            .map_err(crate::words::in_frame)
             .and_then(|()| slot.as_ref().map_or(Ok(()), Self::validate));
         if done.is_err() {
             *slot = None;

@@ -190,6 +190,42 @@ pub fn seal(out: &mut [u32], payload_len: usize) -> Result<usize, ConfigError> {
     Ok(total)
 }
 
+/// `e` with a payload index turned into an index into its frame (the payload follows the
+/// version and length words); other errors as they are.
+pub fn in_frame(e: ConfigError) -> ConfigError {
+    match e {
+        ConfigError::Words { at } => ConfigError::Words { at: at + 2 },
+        e => e,
+    }
+}
+
+/// `value`'s words as a sealed frame in `out` ([`seal`]); returns the frame's length.
+///
+/// # Errors
+/// [`ConfigError::Words`] when `out` cannot hold the frame, or `value`'s own `put` error.
+pub fn put_frame<T: Words>(value: &T, out: &mut [u32]) -> Result<usize, ConfigError> {
+    let len = out.len();
+    let payload = out.get_mut(2..).ok_or(ConfigError::Words { at: len })?;
+    let mut w = WordWriter::new(payload);
+    value.put(&mut w).map_err(in_frame)?;
+    let payload_len = w.len();
+    seal(out, payload_len)
+}
+
+/// A frame of [`put_frame`] decoded: [`open`], `T::take`, every word consumed. The value's own
+/// invariants are the caller's to check (its `validate`).
+///
+/// # Errors
+/// [`open`]'s errors, or [`ConfigError::Words`] at the first bad or left-over word (an index into
+/// the frame).
+pub fn take_frame<T: Words>(words: &[u32]) -> Result<T, ConfigError> {
+    let payload = open(words)?;
+    let mut r = WordReader::new(payload);
+    let value = T::take(&mut r);
+    r.finish().map_err(in_frame)?;
+    Ok(value)
+}
+
 /// The payload of a frame written by [`seal`], after checking its version, its length and its
 /// CRC-32 (every single-bit error, and every burst of up to 32 bits, is caught).
 ///
