@@ -38,6 +38,7 @@
 //! goes to 100 %), a law that ignores the drive sample's own distance or follows w* through a
 //! velocity loop on the exact model (the exact-model family's unsettled seeks and p95).
 
+use sledid_host::control::family::FamilyRanges;
 use sledid_host::control::family_eval::FamilyOptions;
 use sledid_host::control::seek::SeekOptions;
 use sledid_host::control::seek::family::{SeekFamilyReport, evaluate, stats_table};
@@ -168,7 +169,10 @@ fn calibrated_seeks_on_the_plant_family() {
         // reported all the same — settled after the seek error's budget (late, not lost), or off
         // track after settling (the reading left ±1 quantum and came back before the window's
         // last 10 ms; `servo::calibration::watch`), or hunting after settling (four drive
-        // pulses past the calibrated breakaway level, each the other way) — measured 79 / 71 of
+        // pulses past the calibrated breakaway level, each the other way), or ringing (four
+        // crossings of the target, each more than a quantum past it) — measured 80 / 71 of
+        // 10,000 with the ring rule (seed 2: 75; 79 / 71 / 75 before it: one settled seek of seed
+        // 1 crossed four times; seeds 3–5 34 / 65 / 44, one more on seed 5); 79 / 71 of
         // 10,000 since the hunting level is capped at 3 × the fitted Coulomb level (seed 2: 75;
         // 62 / 65 / 66 before the cap, which then left 3 / 4 of the wider family's failing plants
         // unflagged, 1 / 3 with it; at 2 × Coulomb 86 / 88 and 0 / 3); 58 / 64 / 58 before the
@@ -181,6 +185,49 @@ fn calibrated_seeks_on_the_plant_family() {
         // hold (thousands), or that hunts at three pulses (84 / 76; counted either way, a fine
         // step's chatter too: 98 / 87).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
-        assert!(s.settled_reported <= 79, "seed {seed}: {s:?}");
+        assert!(s.settled_reported <= 80, "seed {seed}: {s:?}");
+    }
+}
+
+/// The wider family (`FamilyRanges::wide`: every range doubled at both ends on a log scale;
+/// `control-family --passes seek --wide`), the calibrated seek mode: the issue asks where it
+/// breaks and that every failure there end flagged — a safe stop (calibration's refusals
+/// included) or a seek error. Measured 2026-11-28, seeds 1 / 7 (BENCHMARKS.md, "The wider
+/// family" and "Seek errors"): clean 79.5 / 80.5 %, 13 / 15 plants stopped, every unsettled seek
+/// of a plant not stopped reported (seeds 2–4 too) — before the ring rule
+/// (`servo::calibration::watch`, "Ringing") seed 7's plant 186 left 2 of its 26 unreported,
+/// ringing ±250 tracks after a re-calibration; and plants failing with nothing flagged 1 / 2
+/// (seeds 2–4: 2 / 5 / 3; 1 / 3 before the ring rule), every one by drive pulses while the
+/// reading stays within ±1 quantum: heavy (mass 6–12×), noisy (0.15–0.2 quantum) sleds whose
+/// readings flicker at the cell's centre and whose coasting damping kicks past the true
+/// breakaway but under the hunting level. That target is not met; asserted: no unreported
+/// unsettled seek, and at most 3 such plants per family (5 / 4 before the hunting rule, 40 /
+/// 36 before the seek error). Trips on a watch without the ring rule (seed 7) or without the
+/// hunting rule (seed 1), or on ranges that are not the wider ones (the family's own has no
+/// stop; the wider one 13 / 15: asserted ≥ 5).
+#[test]
+fn the_wider_family_fails_flagged() {
+    for seed in [1, 7] {
+        let r = family_of(FamilyOptions {
+            plants: 200,
+            seed,
+            seeks: 100,
+            calibrate: true,
+            ranges: FamilyRanges::wide(),
+            ..FamilyOptions::default()
+        });
+        let s = &r.seek;
+        for p in &r.plants {
+            let b = &p.seek;
+            assert!(
+                b.safe_stop.is_some() || b.unsettled_reported == b.unsettled,
+                "seed {seed}, plant {}: {} unsettled, {} reported, no stop",
+                p.index,
+                b.unsettled,
+                b.unsettled_reported
+            );
+        }
+        assert!(s.unflagged_failures <= 3, "seed {seed}: {s:?}");
+        assert!(s.safe_stops >= 5, "seed {seed}: {s:?}");
     }
 }
