@@ -1031,26 +1031,30 @@ impl RlsConfig {
         let (gamma, capped) = self.column_chain(d, &mut phi, &mut fh, &mut wide, e_nu, sigma);
         let (g_m, g_e) = (gamma.m, gamma.e);
         // The U/ν triangle column by column: Uᵢⱼ ← Uᵢⱼ + νᵢ μⱼ, νᵢ ← νᵢ + Uᵢⱼ(old) gⱼ for
-        // i < j, νⱼ = gⱼ; ν·2^24 in 64-bit accumulators (two arrays of words, zeroed in line),
-        // exact: the headroom H keeps νᵢ below 2^31 in ν units.
-        let mut nu_lo = [0u32; MAX_PARAMS];
-        let mut nu_hi = [0i32; MAX_PARAMS];
+        // i < j, νⱼ = gⱼ; ν·2^24 in 64-bit accumulators, exact: the headroom H keeps νᵢ below
+        // 2^31 in ν units. The accumulators' two arrays of words are those of Mⱼ (low) and Gⱼ
+        // (high), no arrays of their own to zero: column j reads its Mⱼ and Gⱼ before it writes
+        // νⱼ over them, and reads only the νᵢ (i < j) the earlier columns wrote.
+        let (nu_lo, nu_hi) = (&mut phi, &mut fh);
         let mut sat = false;
-        // Column j: its entries above the diagonal (`col`, the first j of the column), Mⱼ, Gⱼ and
-        // the column's kind.
-        let mut column = |j: usize, col: &mut [i32], m_mu: i32, gn: i32, wj: i8| {
+        // Column j: its entries above the diagonal (`col`, the first j of the column) and the
+        // column's kind; Mⱼ and Gⱼ from their arrays.
+        let mut column = |j: usize, col: &mut [i32], wj: i8| {
+            let m_mu = nu_lo.get(j).copied().unwrap_or(0);
+            let gn = nu_hi.get(j).copied().unwrap_or(0);
             for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
                 let u_old = *uij;
-                let nu = nu_of(*lo, *hi);
+                let nu = nu_of(*lo as u32, *hi);
                 *uij = if wj == NARROW {
                     add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
                 } else {
                     wide_entry(u_old, nu, m_mu, wj, &mut sat)
                 };
-                (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
+                let (l, h) = nu_acc(*lo as u32, *hi, u_old, gn);
+                (*lo, *hi) = (l as i32, h);
             }
             if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
-                *lo = (gn as u32) << U_FRAC_BITS;
+                *lo = ((gn as u32) << U_FRAC_BITS) as i32;
                 *hi = gn >> (32 - U_FRAC_BITS);
             }
         };
@@ -1059,30 +1063,13 @@ impl RlsConfig {
         // iterator is shorter).
         if ARMV6M {
             let mut start = 0;
-            for (j, ((&m_mu, &gn), &wj)) in phi
-                .iter()
-                .zip(fh.iter())
-                .zip(wide.iter())
-                .enumerate()
-                .take(n)
-            {
-                column(
-                    j,
-                    u_i8f24.get_mut(start..start + j).unwrap_or_default(),
-                    m_mu,
-                    gn,
-                    wj,
-                );
+            for (j, &wj) in wide.iter().enumerate().take(n) {
+                column(j, u_i8f24.get_mut(start..start + j).unwrap_or_default(), wj);
                 start += n;
             }
         } else {
-            for (j, (((col, &m_mu), &gn), &wj)) in columns_mut(u_i8f24, n)
-                .zip(phi.iter())
-                .zip(fh.iter())
-                .zip(wide.iter())
-                .enumerate()
-            {
-                column(j, col.get_mut(..j).unwrap_or_default(), m_mu, gn, wj);
+            for (j, (col, &wj)) in columns_mut(u_i8f24, n).zip(wide.iter()).enumerate() {
+                column(j, col.get_mut(..j).unwrap_or_default(), wj);
             }
         }
 
@@ -1099,7 +1086,7 @@ impl RlsConfig {
             let gains = nu_lo
                 .iter()
                 .zip(nu_hi.iter())
-                .map(|(lo, hi)| nu_of(*lo, *hi));
+                .map(|(lo, hi)| nu_of(*lo as u32, *hi));
             let thetas = theta_i16f48.iter_mut().zip(theta.iter_mut());
             if (0..=31).contains(&a) {
                 for ((th, out), nu) in thetas.zip(gains) {
