@@ -47,8 +47,9 @@
 //!   add to a constant, not a general floating add.
 //! - **One pass over the columns.** ν's block exponent is known before the first column (from the
 //!   exponents of D and the bit lengths of f), so the scalar chain (D, γ and each column's Mⱼ, Gⱼ
-//!   below) runs in one loop over the columns; it needs neither U nor ν, so the U/ν triangle
-//!   follows it column by column with only those two numbers per column, then θ.
+//!   below) runs one column at a time; it needs neither U nor ν, so the U/ν triangle follows it
+//!   column by column with only those two numbers per column (column j's triangle right after
+//!   column j's chain on Armv6-M, after the whole chain on Armv7-M), then θ.
 //! - **One body for every N.** [`RlsConfig::update`] is a thin const-generic wrapper of one kernel
 //!   on slices, so an image with several parameter counts carries the kernel once.
 //!
