@@ -897,19 +897,21 @@ impl Chain {
             // rⱼ = 1/(1 + qⱼ), then γ.
             let q = mul_hi_u32(g, mu);
             let s_q = s_g + t - 7;
-            let (w, w_e) = if s_q >= 1 {
+            // 1 + q = w·2^w_e, carried as (w, 30 + w_e).
+            let (w, adj) = if s_q >= 1 {
                 // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
-                ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -31)
+                ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -1)
             } else {
-                one_plus_large(q, -31 - s_q)
+                let (w, w_e) = one_plus_large(q, -31 - s_q);
+                (w, 30 + w_e)
             };
             // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e); γ's exponent gains r_e + 32 =
             // −30 − w_e, less its normalisation.
             let x2 = recip_q61(w) << 1;
             let (m, z) = normalise(mul_hi_u32(self.gamma_m, x2), 0);
             self.gamma_m = m;
-            self.t_gamma += 30 + w_e - z;
-            (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e - 30 - w_e);
+            self.t_gamma += adj - z;
+            (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e - adj);
         } else {
             *mj = 0;
         }
