@@ -1155,15 +1155,13 @@ impl RlsConfig {
         let mut chain = Chain::new(self, e_nu, sigma);
         let mut sat = false;
         if ARMV6M {
-            let mut start = 0;
-            for (j, dj) in d.iter_mut().enumerate() {
+            for (j, (dj, col)) in d.iter_mut().zip(columns_mut(u_i8f24, n)).enumerate() {
                 let mut wj = NARROW;
                 if let (Some(mj), Some(gj)) = (phi.get_mut(j), fh.get_mut(j)) {
                     chain.column(dj, gj, mj, &mut wj);
                 }
-                let col = u_i8f24.get_mut(start..start + j).unwrap_or_default();
+                let col = col.get_mut(..j).unwrap_or_default();
                 triangle_column(j, col, &mut phi, &mut fh, wj, &mut sat);
-                start += n;
             }
         } else {
             let mut wide = [NARROW; MAX_PARAMS];
