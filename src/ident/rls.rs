@@ -47,8 +47,9 @@
 //!   add to a constant, not a general floating add.
 //! - **One pass over the columns.** ν's block exponent is known before the first column (from the
 //!   exponents of D and the bit lengths of f), so the scalar chain (D, γ and each column's Mⱼ, Gⱼ
-//!   below) runs in one loop over the columns; it needs neither U nor ν, so the U/ν triangle
-//!   follows it column by column with only those two numbers per column, then θ.
+//!   below) runs one column at a time; it needs neither U nor ν, so the U/ν triangle follows it
+//!   column by column with only those two numbers per column (column j's triangle right after
+//!   column j's chain on Armv6-M, after the whole chain on Armv7-M), then θ.
 //! - **One body for every N.** [`RlsConfig::update`] is a thin const-generic wrapper of one kernel
 //!   on slices, so an image with several parameter counts carries the kernel once.
 //!
@@ -816,23 +817,106 @@ fn one_plus_large(m: u32, e: i32) -> (u32, i32) {
     (w.m, w.e)
 }
 
-/// The column chain's per-update shift constants. With f̂ⱼ = f_m·2^(−F−lz): gⱼ =
-/// g·2^(e_d + 32 − F − lz), μⱼ = mu·2^(e_γ + 32 − F − lz); Gⱼ = g >> (e_ν − e_g) (gⱼ in ν units)
-/// = g >> (`g` + lz − e_d); Mⱼ = mu >> t with t = −(e_ν + e_μ + 24 + 32) = `t` + lz − e_γ
-/// (ΔUᵢⱼ = νᵢ μⱼ in I8F24 = hi32(ν_raw·Mⱼ)); 1 + q = 2^31 + q >> s_q in units 2^−31 with
-/// s_q = −31 − e_q = q + (lz − e_d) + (lz − e_γ), q = −127 + 2F = `g` + `t` − 7: s_q is the sum of
-/// the two shifts less 7.
-struct ChainConsts {
-    g: i32,
-    t: i32,
+/// The column chain, one column at a time: gⱼ = dⱼ fⱼ, μⱼ = −fⱼ γⱼ₋₁, qⱼ = gⱼ|μⱼ|,
+/// rⱼ = 1/(1 + qⱼ), γⱼ = γⱼ₋₁ rⱼ, dⱼ ← cap(dⱼ rⱼ / λ), and the column's Mⱼ (μⱼ pre-shifted for
+/// the U update) and Gⱼ (gⱼ in ν units). Products are the high words of 32×32 multiplies,
+/// normalised only where a mantissa is kept (γ, D): gⱼ, μⱼ ∈ [2^30, 2^32), qⱼ ∈ [2^28, 2^32).
+///
+/// Shifts: with f̂ⱼ = f_m·2^(−F−lz), gⱼ = g·2^(e_d + 32 − F − lz), μⱼ = mu·2^(e_γ + 32 − F − lz);
+/// Gⱼ = g >> (e_ν − e_g) = g >> (`g_base` + lz − e_d); Mⱼ = mu >> t with t = −(e_ν + e_μ + 24 +
+/// 32) = t_γ + lz, t_γ = k_t − e_γ, k_t = −e_ν − 88 + F (ΔUᵢⱼ = νᵢ μⱼ in I8F24 = hi32(ν_raw·Mⱼ));
+/// 1 + q = 2^31 + q >> s_q in units 2^−31 with s_q = −31 − e_q = s_g + t − 7 (the sum of the two
+/// shifts less 7). γ is carried as (γ_m, t_γ): Mⱼ's shift is then t_γ + lz and the exponents of
+/// gⱼ and 1 + qⱼ follow from it and Gⱼ's shift alone (one value fewer live per column).
+struct Chain {
+    g_base: i32,
+    k_t: i32,
+    l_m: u32,
+    l_e: i32,
+    cap_exp: i32,
+    gamma_m: u32,
+    t_gamma: i32,
+    /// A dⱼ met its cap.
+    capped: bool,
 }
 
-impl ChainConsts {
-    fn new(_cfg: &RlsConfig, e_nu: i32) -> Self {
+impl Chain {
+    /// γ₀ = 1/(λ·4^σ).
+    #[inline(always)]
+    fn new(cfg: &RlsConfig, e_nu: i32, sigma: i32) -> Self {
+        let (l_m, l_e) = (cfg.lambda_inv.mant(), cfg.lambda_inv.exp());
+        let k_t = -e_nu - 88 + F_FRAC_BITS;
         Self {
-            g: e_nu - 32 + F_FRAC_BITS,
-            t: -e_nu - 88 + F_FRAC_BITS,
+            g_base: e_nu - 32 + F_FRAC_BITS,
+            k_t,
+            l_m,
+            l_e,
+            cap_exp: cfg.d_cap_exp,
+            gamma_m: l_m,
+            t_gamma: k_t - (l_e - 2 * sigma),
+            capped: false,
         }
+    }
+
+    /// γ_N after the last column.
+    #[inline(always)]
+    fn gamma(&self) -> (u32, i32) {
+        (self.gamma_m, self.k_t - self.t_gamma)
+    }
+
+    /// Column j: `gj` holds f̂ⱼ and gets Gⱼ, `mj` gets Mⱼ, `wj` the [`wide_code`] of a ΔU that
+    /// needs the 64-bit path (left as it is otherwise: [`NARROW`]); updates dⱼ and γ. f̂ⱼ = 0:
+    /// rⱼ = 1, gⱼ = μⱼ = 0 (U's column, γ and ν unchanged, νⱼ = 0), dⱼ only forgets.
+    /// (Each result is stored as soon as it is known: fewer values live, measured.)
+    #[inline(always)]
+    fn column(&mut self, dj: &mut Dyadic, gj: &mut i32, mj: &mut i32, wj: &mut i8) {
+        let (mut d_m, mut d_e) = (dj.mant(), dj.exp());
+        let fj = *gj;
+        if fj != 0 {
+            let sgn = fj >> 31; // 0 or −1
+            let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
+            let lz = leading_zeros_u32(f_abs);
+            let f_m = f_abs << lz;
+            // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
+            let g = mul_hi_u32(d_m, f_m);
+            let s_g = self.g_base + lz as i32 - d_e;
+            let gn = g.checked_shr(s_g as u32).unwrap_or(0) as i32;
+            *gj = (gn ^ sgn).wrapping_sub(sgn);
+            // Mⱼ, with μⱼ's sign (−fⱼ's).
+            let mu = mul_hi_u32(f_m, self.gamma_m);
+            let t = self.t_gamma + lz as i32;
+            let m_mu = if t >= 1 {
+                mu.checked_shr(t as u32).unwrap_or(0) as i32
+            } else {
+                // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
+                // mu/2, shifted by −t − 31 and narrowed, saturating.
+                *wj = wide_code(-t - 31);
+                (mu >> 1) as i32
+            };
+            *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
+            // rⱼ = 1/(1 + qⱼ), then γ.
+            let q = mul_hi_u32(g, mu);
+            let s_q = s_g + t - 7;
+            // 1 + q = w·2^w_e, carried as (w, 30 + w_e).
+            let (w, adj) = if s_q >= 1 {
+                // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
+                ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -1)
+            } else {
+                let (w, w_e) = one_plus_large(q, -31 - s_q);
+                (w, 30 + w_e)
+            };
+            // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e); γ's exponent gains r_e + 32 =
+            // −30 − w_e, less its normalisation.
+            let x2 = recip_q61(w) << 1;
+            let (m, z) = normalise(mul_hi_u32(self.gamma_m, x2), 0);
+            self.gamma_m = m;
+            self.t_gamma += adj - z;
+            (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e - adj);
+        } else {
+            *mj = 0;
+        }
+        let (m, e) = normalise(mul_hi_u32(d_m, self.l_m), d_e + self.l_e + 32);
+        *dj = store_d(m, e, self.cap_exp, &mut self.capped);
     }
 }
 
@@ -917,6 +1001,39 @@ fn add_shifted(u: i32, p: i64, s: i32, sat: &mut bool) -> i32 {
             *sat = true;
             if p > 0 { i32::MAX } else { i32::MIN }
         }
+    }
+}
+
+/// Column j of the U/ν triangle: its entries above the diagonal (`col`, the first j of the
+/// column) get Uᵢⱼ + νᵢ μⱼ and νᵢ gets Uᵢⱼ(old)·gⱼ, then νⱼ = gⱼ. Mⱼ and Gⱼ are read from
+/// `nu_lo[j]` and `nu_hi[j]` ([`Chain::column`] put them there), `wj` is the column's kind. ν·2^24
+/// in exact 64-bit accumulators as two arrays of words; the headroom H keeps νᵢ below 2^31 in
+/// ν units.
+#[inline(always)]
+fn triangle_column(
+    j: usize,
+    col: &mut [i32],
+    nu_lo: &mut [i32; MAX_PARAMS],
+    nu_hi: &mut [i32; MAX_PARAMS],
+    wj: i8,
+    sat: &mut bool,
+) {
+    let m_mu = nu_lo.get(j).copied().unwrap_or(0);
+    let gn = nu_hi.get(j).copied().unwrap_or(0);
+    for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
+        let u_old = *uij;
+        let nu = nu_of(*lo as u32, *hi);
+        *uij = if wj == NARROW {
+            add_sat_i32(u_old, mul_hi_round(nu, m_mu), sat)
+        } else {
+            wide_entry(u_old, nu, m_mu, wj, sat)
+        };
+        let (l, h) = nu_acc(*lo as u32, *hi, u_old, gn);
+        (*lo, *hi) = (l as i32, h);
+    }
+    if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
+        *lo = ((gn as u32) << U_FRAC_BITS) as i32;
+        *hi = gn >> (32 - U_FRAC_BITS);
     }
 }
 
@@ -1026,65 +1143,48 @@ impl RlsConfig {
             }
         }
 
-        // The column chain (D, γ, each column's Mⱼ over φ̂ⱼ and Gⱼ over f̂ⱼ), then the U/ν triangle.
-        let mut wide = [NARROW; MAX_PARAMS];
-        let (gamma, capped) = self.column_chain(d, &mut phi, &mut fh, &mut wide, e_nu, sigma);
-        let (g_m, g_e) = (gamma.m, gamma.e);
-        // The U/ν triangle column by column: Uᵢⱼ ← Uᵢⱼ + νᵢ μⱼ, νᵢ ← νᵢ + Uᵢⱼ(old) gⱼ for
-        // i < j, νⱼ = gⱼ; ν·2^24 in 64-bit accumulators (two arrays of words, zeroed in line),
-        // exact: the headroom H keeps νᵢ below 2^31 in ν units.
-        let mut nu_lo = [0u32; MAX_PARAMS];
-        let mut nu_hi = [0i32; MAX_PARAMS];
+        // The column chain (D, γ, each column's Mⱼ and Gⱼ: [`Chain`]) and the U/ν triangle
+        // column by column ([`triangle_column`]). The chain needs neither U nor ν, so column j's
+        // chain can run just before column j's triangle (one loop: Armv6-M, where the chain's
+        // values live in memory anyway) or every chain column before the triangle (two loops:
+        // Armv7-M, where one loop spills the chain's constants around the triangle); both
+        // measured. The same operations in the same order per column, the same results. Mⱼ is
+        // stored over φ̂ⱼ and Gⱼ over f̂ⱼ, and the ν accumulators' two arrays of words are those
+        // two arrays (low, high), no arrays of their own to zero: column j reads its Mⱼ and Gⱼ
+        // before it writes νⱼ over them, and reads only the νᵢ (i < j) earlier columns wrote.
+        let mut chain = Chain::new(self, e_nu, sigma);
         let mut sat = false;
-        // Column j: its entries above the diagonal (`col`, the first j of the column), Mⱼ, Gⱼ and
-        // the column's kind.
-        let mut column = |j: usize, col: &mut [i32], m_mu: i32, gn: i32, wj: i8| {
-            for (uij, (lo, hi)) in col.iter_mut().zip(nu_lo.iter_mut().zip(nu_hi.iter_mut())) {
-                let u_old = *uij;
-                let nu = nu_of(*lo, *hi);
-                *uij = if wj == NARROW {
-                    add_sat_i32(u_old, mul_hi_round(nu, m_mu), &mut sat)
-                } else {
-                    wide_entry(u_old, nu, m_mu, wj, &mut sat)
-                };
-                (*lo, *hi) = nu_acc(*lo, *hi, u_old, gn);
-            }
-            if let (Some(lo), Some(hi)) = (nu_lo.get_mut(j), nu_hi.get_mut(j)) {
-                *lo = (gn as u32) << U_FRAC_BITS;
-                *hi = gn >> (32 - U_FRAC_BITS);
-            }
-        };
-        // The same columns in the same order on every target; only how the loop walks them
-        // differs (measured: on Armv6-M indexed columns spill less, on Armv7-M the chunked
-        // iterator is shorter).
         if ARMV6M {
-            let mut start = 0;
-            for (j, ((&m_mu, &gn), &wj)) in phi
-                .iter()
-                .zip(fh.iter())
-                .zip(wide.iter())
-                .enumerate()
-                .take(n)
-            {
-                column(
-                    j,
-                    u_i8f24.get_mut(start..start + j).unwrap_or_default(),
-                    m_mu,
-                    gn,
-                    wj,
-                );
-                start += n;
+            for (j, (dj, col)) in d.iter_mut().zip(columns_mut(u_i8f24, n)).enumerate() {
+                let mut wj = NARROW;
+                if let (Some(mj), Some(gj)) = (phi.get_mut(j), fh.get_mut(j)) {
+                    chain.column(dj, gj, mj, &mut wj);
+                }
+                let col = col.get_mut(..j).unwrap_or_default();
+                triangle_column(j, col, &mut phi, &mut fh, wj, &mut sat);
             }
         } else {
-            for (j, (((col, &m_mu), &gn), &wj)) in columns_mut(u_i8f24, n)
-                .zip(phi.iter())
-                .zip(fh.iter())
-                .zip(wide.iter())
-                .enumerate()
+            let mut wide = [NARROW; MAX_PARAMS];
+            for (((dj, gj), mj), wj) in d
+                .iter_mut()
+                .zip(fh.iter_mut())
+                .zip(phi.iter_mut())
+                .zip(wide.iter_mut())
             {
-                column(j, col.get_mut(..j).unwrap_or_default(), m_mu, gn, wj);
+                chain.column(dj, gj, mj, wj);
+            }
+            // Through a closure: LLVM then unrolls the triangle's entries with the accumulators
+            // at fixed stack offsets (measured: a direct call is dearer on the M4F).
+            let mut column = |j: usize, col: &mut [i32], wj: i8| {
+                triangle_column(j, col, &mut phi, &mut fh, wj, &mut sat);
+            };
+            for (j, (col, &wj)) in columns_mut(u_i8f24, n).zip(wide.iter()).enumerate() {
+                column(j, col.get_mut(..j).unwrap_or_default(), wj);
             }
         }
+        let capped = chain.capped;
+        let (g_m, g_e) = chain.gamma();
+        let (nu_lo, nu_hi) = (&phi, &fh);
 
         // θ ← θ + 2^σ ν γ_N ε with c = γ_N |ε|: Kᵢ = round(νᵢ·(m_c/2)/2^32) (one high-word
         // multiply; m_c/2 < 2^31), Δθ in I16F48 = Kᵢ·2^a, a = e_ν + e_c + σ + 48 + 33 (one shift
@@ -1099,7 +1199,7 @@ impl RlsConfig {
             let gains = nu_lo
                 .iter()
                 .zip(nu_hi.iter())
-                .map(|(lo, hi)| nu_of(*lo, *hi));
+                .map(|(lo, hi)| nu_of(*lo as u32, *hi));
             let thetas = theta_i16f48.iter_mut().zip(theta.iter_mut());
             if (0..=31).contains(&a) {
                 for ((th, out), nu) in thetas.zip(gains) {
@@ -1143,96 +1243,6 @@ impl RlsConfig {
             Dyadic::ZERO
         };
         status | self.bound_covariance(u_i8f24, d, tr)
-    }
-
-    /// The column chain: for each column j, gⱼ = dⱼ fⱼ, μⱼ = −fⱼ γⱼ₋₁, qⱼ = gⱼ|μⱼ|,
-    /// rⱼ = 1/(1 + qⱼ), γⱼ = γⱼ₋₁ rⱼ, dⱼ ← cap(dⱼ rⱼ / λ), and the column's Mⱼ (μⱼ pre-shifted
-    /// for the U update, into `m_col`, over φ̂) and Gⱼ (gⱼ in ν units, into `g_col`, over f̂);
-    /// a column whose ΔU needs the 64-bit path has its [`wide_code`] in `wide` (else [`NARROW`]). Returns γ_N and
-    /// whether a dⱼ met its cap. Products are the high words of 32×32 multiplies, normalised
-    /// only where a mantissa is kept (γ, D): gⱼ, μⱼ ∈ [2^30, 2^32), qⱼ ∈ [2^28, 2^32). Inlined
-    /// into the one kernel body (a call of its own measured dearer).
-    #[inline(always)]
-    fn column_chain(
-        &self,
-        d: &mut [Dyadic],
-        m_col: &mut [i32; MAX_PARAMS],
-        g_col: &mut [i32; MAX_PARAMS],
-        wide: &mut [i8; MAX_PARAMS],
-        e_nu: i32,
-        sigma: i32,
-    ) -> (Pos, bool) {
-        let (l_m, l_e) = (self.lambda_inv.mant(), self.lambda_inv.exp());
-        let cap_exp = self.d_cap_exp;
-        let k = ChainConsts::new(self, e_nu);
-        // γ as (γ_m, t_γ) with t_γ = k.t − e_γ, γ₀ = 1/(λ·4^σ): Mⱼ's shift is then t_γ + lz and
-        // the exponents of gⱼ and 1 + qⱼ follow from it and Gⱼ's shift alone (one value fewer
-        // live in the loop; the same numbers).
-        let mut gamma_m = l_m;
-        let mut t_gamma = k.t - (l_e - 2 * sigma);
-        // Mⱼ replaces φ̂ⱼ and Gⱼ replaces f̂ⱼ (both dead once read); a column whose ΔU needs the
-        // 64-bit path has its [`wide_code`] in `wide` ([`NARROW`]: none).
-        let mut capped = false;
-        for (((dj, gj), mj), wj) in d
-            .iter_mut()
-            .zip(g_col.iter_mut())
-            .zip(m_col.iter_mut())
-            .zip(wide.iter_mut())
-        {
-            let (mut d_m, mut d_e) = (dj.mant(), dj.exp());
-            let fj = *gj;
-            // dⱼ·rⱼ as (d_m, d_e): dⱼ itself when f̂ⱼ = 0 (rⱼ = 1, gⱼ = μⱼ = 0: U's column, γ
-            // and ν unchanged, νⱼ = 0).
-            if fj != 0 {
-                let sgn = fj >> 31; // 0 or −1
-                let f_abs = (fj ^ sgn).wrapping_sub(sgn) as u32;
-                let lz = leading_zeros_u32(f_abs);
-                let f_m = f_abs << lz;
-                // Gⱼ: gⱼ in ν units, truncated, below 2^(31−H) (shift ≥ H ≥ 1).
-                let g = mul_hi_u32(d_m, f_m);
-                let s_g = k.g + lz as i32 - d_e;
-                let gn = g.checked_shr(s_g as u32).unwrap_or(0) as i32;
-                *gj = (gn ^ sgn).wrapping_sub(sgn);
-                // Mⱼ, with μⱼ's sign (−fⱼ's).
-                let mu = mul_hi_u32(f_m, gamma_m);
-                let t = t_gamma + lz as i32;
-                let m_mu = if t >= 1 {
-                    mu.checked_shr(t as u32).unwrap_or(0) as i32
-                } else {
-                    // A large ΔU (early updates from a large P₀): the 64-bit product of νᵢ and
-                    // mu/2, shifted by −t − 31 and narrowed, saturating.
-                    *wj = wide_code(-t - 31);
-                    (mu >> 1) as i32
-                };
-                *mj = (m_mu ^ !sgn).wrapping_sub(!sgn);
-                // rⱼ = 1/(1 + qⱼ), then γ. s_q = k.q + (lz − e_d) + (lz − e_γ) = s_g + t − 7
-                // (k.q − k.g − k.t = −7).
-                let q = mul_hi_u32(g, mu);
-                let s_q = s_g + t - 7;
-                let (w, w_e) = if s_q >= 1 {
-                    // q < 1: 1 + q = 2^31 + q >> s_q in units 2^−31.
-                    ((1 << 31) + q.checked_shr(s_q as u32).unwrap_or(0), -31)
-                } else {
-                    one_plus_large(q, -31 - s_q)
-                };
-                // r = (2^61/w)·2^(−61−w_e) = x2·2^(−62−w_e); γ's exponent gains r_e + 32 =
-                // −30 − w_e, less its normalisation.
-                let x2 = recip_q61(w) << 1;
-                let (m, z) = normalise(mul_hi_u32(gamma_m, x2), 0);
-                gamma_m = m;
-                t_gamma += 30 + w_e - z;
-                (d_m, d_e) = (mul_hi_u32(d_m, x2), d_e - 30 - w_e);
-            } else {
-                *mj = 0;
-            }
-            let (m, e) = normalise(mul_hi_u32(d_m, l_m), d_e + l_e + 32);
-            *dj = store_d(m, e, cap_exp, &mut capped);
-        }
-        let gamma = Pos {
-            m: gamma_m,
-            e: k.t - t_gamma,
-        };
-        (gamma, capped)
     }
 
     /// Applies a trace, diagonal or constant-trace bound after an update (scales D); `tr` is

@@ -2,9 +2,10 @@
 //!
 //! On Armv7-M (M3/M4) `u32 × u32 → u64` is one `UMULL` and a leading-zero count one `CLZ`; on
 //! Armv6-M (M0/M0+) the compiler would call `__aeabi_lmul` (a 64×64 multiply) and `__clzsi2`.
-//! [`mul_u32_wide`] builds the product from four 16×16 `MULS` there instead, and [`bit_len_u64`]
-//! counts by binary search. Both paths return exactly the same result, so outputs are bit-identical
-//! on every target (the tests assert the two paths agree).
+//! [`mul_u32_wide`] builds the product from four 16×16 `MULS` there instead, [`leading_zeros_u32`]
+//! counts by a de Bruijn multiply and [`bit_len_u64`] by binary search. Both paths of each return
+//! exactly the same result, so outputs are bit-identical on every target (the tests assert the
+//! paths agree).
 //!
 //! Armv6-M is recognised by `target_has_atomic = "32"` being absent: it is the only Arm profile
 //! without exclusive load/store, and Rust exposes no `thumb2`/`v7` target-feature cfg on stable.
@@ -39,15 +40,53 @@ pub fn bit_len_u64(x: u64) -> i32 {
     }
 }
 
-/// Leading zeros of a 32-bit `x` (32 for 0): one `CLZ` on Armv7-M, a binary search on Armv6-M
-/// (where `leading_zeros` calls `__clzsi2`).
+/// Leading zeros of a 32-bit `x` (32 for 0): one `CLZ` on Armv7-M; on Armv6-M (where
+/// `leading_zeros` calls `__clzsi2`) [`leading_zeros_by_de_bruijn`], with no branch but the one
+/// for 0.
 #[inline(always)]
 pub fn leading_zeros_u32(x: u32) -> u32 {
     if ARMV6M {
-        (32 - bit_len_u64_by_search(u64::from(x))) as u32
+        leading_zeros_by_de_bruijn(x)
     } else {
         x.leading_zeros()
     }
+}
+
+/// The de Bruijn multiplier of [`leading_zeros_by_de_bruijn`]: (2^k − 1)·`DE_BRUIJN_LZ` >> 27 is a
+/// different index for each k in 1..=32 (asserted in the tests).
+const DE_BRUIJN_LZ: u32 = 0x07C4_ACDD;
+
+/// 32 − k at index (2^k − 1)·[`DE_BRUIJN_LZ`] >> 27, k = 1..=32. Built at compile time.
+#[allow(clippy::indexing_slicing)] // compile-time evaluation: the index is below 32 by the shift
+const LZ_OF_SMEAR: [u8; 32] = {
+    let mut t = [0u8; 32];
+    let mut k = 1;
+    while k <= 32 {
+        let v = if k == 32 { u32::MAX } else { (1u32 << k) - 1 };
+        t[(v.wrapping_mul(DE_BRUIJN_LZ) >> 27) as usize] = (32 - k) as u8;
+        k += 1;
+    }
+    t
+};
+
+/// Leading zeros of a 32-bit `x` (32 for 0) without `CLZ` and without a search: the bits below
+/// the leading one are set by five shift-ORs (x's bit length k ≥ 1 gives 2^k − 1), whose product
+/// with a de Bruijn constant indexes a 32-entry table (the Armv6-M path of
+/// [`leading_zeros_u32`]; the binary search it replaced took a taken branch a step). The same
+/// result as `x.leading_zeros()` for every `x` (tested).
+#[inline(always)]
+pub fn leading_zeros_by_de_bruijn(x: u32) -> u32 {
+    let mut v = x;
+    v |= v >> 1;
+    v |= v >> 2;
+    v |= v >> 4;
+    v |= v >> 8;
+    v |= v >> 16;
+    let lz = LZ_OF_SMEAR
+        .get((v.wrapping_mul(DE_BRUIJN_LZ) >> 27) as usize)
+        .copied()
+        .unwrap_or(0);
+    if x == 0 { 32 } else { u32::from(lz) }
 }
 
 /// Leading zeros of a 32-bit `x` expected to be nearly normalised (`x ≥ 2^28` in the RLS
@@ -444,6 +483,28 @@ mod tests {
                 x32.leading_zeros()
             );
         }
+        // The de Bruijn count: every bit length (each smear value has its own index), with
+        // every pattern below the leading one.
+        let mut seen = [false; 32];
+        for k in 1..=32u32 {
+            let v = u32::MAX >> (32 - k);
+            let idx = (v.wrapping_mul(DE_BRUIJN_LZ) >> 27) as usize;
+            assert!(!seen[idx], "k = {k}");
+            seen[idx] = true;
+        }
+        let mut r: u32 = 0x9E37_79B9;
+        for k in 0..=32u32 {
+            let top = if k == 0 { 0 } else { 1u32 << (k - 1) };
+            for _ in 0..1000 {
+                r ^= r << 13;
+                r ^= r >> 17;
+                r ^= r << 5;
+                let x = top | (r & top.wrapping_sub(1));
+                assert_eq!(leading_zeros_by_de_bruijn(x), x.leading_zeros(), "{x:#x}");
+            }
+        }
+        assert_eq!(leading_zeros_by_de_bruijn(0), 32);
+        assert_eq!(leading_zeros_by_de_bruijn(u32::MAX), 0);
         assert_eq!(mul_i32_wide(-3, 5), -15);
         assert_eq!(
             mul_i32_u32_wide(i32::MIN, u32::MAX),
