@@ -36,9 +36,12 @@ impl ControlFlags {
     /// A fine step's reading toward the target restarted the integrator
     /// (`scheduled::rest`: the sled broke away; the settle law brakes it).
     pub const INTEGRATOR_RESTARTED: Self = Self(1 << 12);
+    /// Settle, coasting: this reading is a still sled's flicker, not motion; nothing damps
+    /// (`scheduled::rest`, "A resting sled's flicker").
+    pub const FLICKER: Self = Self(1 << 13);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 13] = [
+    pub const NAMES: [(Self, &'static str); 14] = [
         (Self::OUTPUT_SATURATED, "output_saturated"),
         (Self::INTEGRATOR_LIMITED, "integrator_limited"),
         (Self::INTEGRATION_HELD, "integration_held"),
@@ -52,6 +55,7 @@ impl ControlFlags {
         (Self::FINE_STEP, "fine_step"),
         (Self::COASTING, "coasting"),
         (Self::INTEGRATOR_RESTARTED, "integrator_restarted"),
+        (Self::FLICKER, "flicker"),
     ];
 }
 

@@ -117,6 +117,8 @@ pub enum LawMode {
     FineRestart,
     /// Settle, coasting: damping only.
     Coast,
+    /// Settle, coasting on a still sled's flicker: nothing drives.
+    CoastFlicker,
     /// Settle: the PID law with compensation.
     Settle,
 }
@@ -136,6 +138,7 @@ impl LawMode {
                     Self::FineRestart
                 }
                 Region::Settle if f.contains(ControlFlags::FINE_STEP) => Self::Fine,
+                Region::Settle if f.contains(ControlFlags::FLICKER) => Self::CoastFlicker,
                 Region::Settle if f.contains(ControlFlags::COASTING) => Self::Coast,
                 Region::Settle => Self::Settle,
             }
@@ -335,7 +338,11 @@ impl ScheduledF64 {
         let previous = std::mem::replace(&mut self.mode, mode);
         let entering_settle = matches!(
             mode,
-            LawMode::Fine | LawMode::FineRestart | LawMode::Coast | LawMode::Settle
+            LawMode::Fine
+                | LawMode::FineRestart
+                | LawMode::Coast
+                | LawMode::CoastFlicker
+                | LawMode::Settle
         );
         if previous == LawMode::Seek && entering_settle && time_optimal {
             self.v_hat = self.seek_observer.v;
@@ -343,9 +350,11 @@ impl ScheduledF64 {
         let region = |m: LawMode| match m {
             LawMode::Hold => Some(Region::Hold),
             LawMode::Seek => Some(Region::Seek),
-            LawMode::Fine | LawMode::FineRestart | LawMode::Coast | LawMode::Settle => {
-                Some(Region::Settle)
-            }
+            LawMode::Fine
+            | LawMode::FineRestart
+            | LawMode::Coast
+            | LawMode::CoastFlicker
+            | LawMode::Settle => Some(Region::Settle),
             LawMode::Fallback => None,
         };
         if mode == LawMode::Fallback {
@@ -389,6 +398,12 @@ impl ScheduledF64 {
             LawMode::FineRestart => {
                 self.integral = 0.0;
                 (g.kp_settle * e - g.kd_settle * self.v_hat, true, false)
+            }
+            LawMode::CoastFlicker => {
+                self.integral = 0.0;
+                self.last_v = self.forward(0.0);
+                self.last_u = 0.0;
+                return 0.0;
             }
             LawMode::Coast => {
                 self.integral = 0.0;

@@ -10,7 +10,7 @@
 //! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 98.5 % | 97.5 % | ≥ 95 % |
 //! | identified no worse than frozen on every plant | 2 plants > 1.02× | 0 | ≤ 5 (target not met) |
 //! | ≥ 20 % faster than frozen where the prior is > 30 % off | 80.5 % of 195 | 85.7 % of 196 | ≥ 75 % (target: all) |
-//! | holding error ≤ 1 quantum | true ≤ 1.62, 2 plants ≥ 1.5 (read ≤ 2) | see below | ≤ 2 plants per family ≥ 1.5, none ≥ 2 |
+//! | holding error ≤ 1 quantum | true ≤ 1.49, 0 plants ≥ 1.5 (read ≤ 2); 196 plants over 1 | 1.49, 0; 195 | ≤ 1 plant per family ≥ 1.5, none ≥ 2 (target not met) |
 //! | friction identified shortens settling on high-friction plants | 0.987× linear-only | 0.984× | < 1 |
 //! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 0 | 0, every variant (1 on seed 7's linear-only variant, plant 24, before the runaway test required |e| itself to grow) |
 //!
@@ -19,8 +19,14 @@
 //! counted (`holding_error_spread_over_seeds`, seeds 1–6, 200 plants each): with the previous RLS
 //! kernel 0 in every family (largest 1.482–1.493); with the one-pass kernel of issue 24 2, 1, 0,
 //! 1, 0, 0 (largest 1.62, 1.95, 1.49, 1.64, 1.49, 1.48) — 4 of 1,200 plants, a measured cost of
-//! the new kernel on this statistic, not only luck. Asserted: at most 2 per family and none at 2
-//! quanta or more.
+//! the new kernel on this statistic, not only luck. Since the coasting damping no longer takes a
+//! still sled's flicker for motion (`control::scheduled::rest`, "A resting sled's flicker";
+//! measured 2026-11-28 with `sledid control-family --passes settling`, seeds 1–7): 0 on every
+//! seed, the largest 1.49 on every seed (before it 2, 1, 0, 1, 0, 0, 0 on seeds 1, 2, 3, 4, 5,
+//! 6, 7, largest 1.62, 1.87, 1.49, 2.11, 1.49, 1.49, 1.49: a resting sled kicked off by a
+//! flicker, held a cell further). Asserted: at most 1 per family (one plant of spread) and none
+//! at 2 quanta or more. The target (≤ 1 quantum) is still not met: Hold accepts a sled one cell
+//! off after 64 readings in the band (`BENCHMARKS.md`, "The holding error ≤ 1 quantum").
 //!
 //! Clean plants over seeds 1–7: 99.0, 99.5, 99.0, 98.5, 99.5, 99.0, 100.0 % (seeds 1, 7, 2, 3, 5,
 //! 6, 4), from 97.0, 94.5, 93.0, 94.5, 96.0, 96.5, 95.0 % before two changes: each plant's seek
@@ -87,7 +93,7 @@ fn the_servo_holds_up_on_the_plant_family() {
             s.off_prior_gain_20
         );
         assert!(
-            two_off <= 2,
+            two_off <= 1,
             "seed {seed}: {two_off} plants held two cells off"
         );
         assert!(

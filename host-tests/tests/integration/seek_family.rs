@@ -9,10 +9,14 @@
 //!
 //! **Each plant's servo designed from its own exact model, identification frozen**
 //! (`--prior exact --frozen`: the law alone). Seeds 1 / 7 (2): access / bound median 1.00 / 1.00
-//! (1.00), p95 1.25 / 1.25 (1.25), ≥ 200 tracks 1.00; unsettled seeks 1 / 0 (1) — seed 1's on
-//! plant 197, the heaviest, almost frictionless sled, drifting a cell in its settle — pulses 0,
-//! safe stops 0. Asserted: median ≤ 1.05, p95 ≤ 1.5, ≤ 1 unsettled seek per family,
-//! no safe stop. (The earlier law, a braking curve followed by a velocity loop, left 46–93 of 100
+//! (1.00), p95 1.25 / 1.25 (1.25), ≥ 200 tracks 1.00; unsettled seeks 0 / 0 (0; seeds 3 / 4:
+//! 0 / 3, the latter one plant), pulses 0, safe stops 0 — since the coasting damping no longer
+//! takes a still sled's flicker for motion (`control::scheduled::rest`, "A resting sled's
+//! flicker"); before it 1 / 0 (0; seed 4: 1 and 3 pulses): seed 1's plant 197, a heavy, almost
+//! frictionless sled resting a cell off, was kicked away from the target by such a flicker and
+//! held there. Asserted: median ≤ 1.05, p95 ≤ 1.5, no unsettled seek and no pulse (the issue's
+//! target; identification is frozen, so the identifier's rounding cannot move it), no safe
+//! stop. (The earlier law, a braking curve followed by a velocity loop, left 46–93 of 100
 //! seeks unsettled on 8 of 10 fast sleds on their exact models.)
 //!
 //! **Every servo designed from the nominal prior, identification on-line** (the product until
@@ -110,9 +114,9 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
         assert!(s.ratio.median <= 1.05, "seed {seed}: {s:?}");
         assert!(s.ratio.p95 <= 1.5, "seed {seed}: {s:?}");
         assert!(s.ratio_long_median <= 1.05, "seed {seed}: {s:?}");
-        assert!(s.unsettled <= 1, "seed {seed}: {s:?}");
+        assert_eq!(s.unsettled, 0, "seed {seed}: {s:?}");
+        assert_eq!(s.limit_cycle_pulses, 0, "seed {seed}: {s:?}");
         assert_eq!(s.safe_stops, 0, "seed {seed}: {s:?}");
-        assert!(s.clean >= 0.995, "seed {seed}: {s:?}");
     }
 }
 

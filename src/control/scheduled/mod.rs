@@ -73,7 +73,7 @@ use crate::words::{WordReader, WordWriter, Words};
 use learn::{RATIO_ONE, SeekGainLearner};
 use observer::VelocityObserver;
 use regions::{Region, RegionDesign, RegionSelector};
-use rest::{NearTarget, Verdict};
+use rest::{NearTarget, StillReading, Verdict};
 use supervisor::{DISTRUST, ModelReport, Redesign};
 
 /// How the Seek region drives the sled.
@@ -356,6 +356,9 @@ pub struct ScheduledState {
     learner: SeekGainLearner,
     /// The learner asks for a redesign at its ratio.
     gain_redesign_pending: bool,
+    /// Coasting: a sled without drive and its kept reading ([`rest`], "A resting sled's
+    /// flicker").
+    still: StillReading,
 }
 
 impl ScheduledState {
@@ -392,6 +395,7 @@ impl ScheduledState {
             calibrated_plan: false,
             learner: SeekGainLearner::new(),
             gain_redesign_pending: false,
+            still: StillReading::new(),
         }
     }
 
@@ -1037,7 +1041,8 @@ impl ScheduledConfig {
         tally.finish(u, Region::Seek)
     }
 
-    /// Settle coasting into the band: damping only, nothing pushes.
+    /// Settle coasting into the band: damping only, nothing pushes; a still sled's flicker is
+    /// not motion ([`rest`], "A resting sled's flicker").
     fn step_coasting(
         &self,
         state: &mut ScheduledState,
@@ -1046,8 +1051,15 @@ impl ScheduledConfig {
     ) -> ControlOutput {
         tally.flags.insert(ControlFlags::COASTING);
         state.integral_i32f32 = 0;
+        let flicker = state.still.flicker(s.y.raw(), state.last_u == 0);
+        tally.flags.set_if(ControlFlags::FLICKER, flicker);
         let g = self.gains_in_use(&state.gains, s.falling_back);
-        let v = 0i64.saturating_sub(g.kd_settle.apply(dead_zone(s.v_hat, g.obs_l)));
+        let moving = if flicker {
+            0
+        } else {
+            dead_zone(s.v_hat, g.obs_l)
+        };
+        let v = 0i64.saturating_sub(g.kd_settle.apply(moving));
         let u = clamp_sym_i32(sat_i32(shr_round_i64(v, 16), &mut tally.sat), self.u_max());
         state.last_u = u;
         // Uncompensated: the linear drive the sled sees is h(u).

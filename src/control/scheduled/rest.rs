@@ -37,6 +37,23 @@
 //! eager, its family's clean plants fell from 97 % to 91 % (the fine steps' pulses), its largest
 //! holding error rose from 1.5 to 3.2 quanta.
 
+//!
+//! # A resting sled's flicker
+//! The settle law's coasting damping brakes a sled it sees moving. A reading that flickers a cell
+//! on the sensor's noise moves v̂ as a real step would, and the damping's kick then breaks a
+//! resting sled away — on the exact-model family a sled resting a cell off was kicked *away* from
+//! the target this way and held there for good; on the wider family such kicks, repeated on every
+//! flicker of heavy, noisy sleds, were pulses nothing reported. A sled without drive whose reading
+//! has not changed for [`STILL_SAMPLES`] is at rest, and nothing but a drive starts it again:
+//! ```text
+//! still:   the same reading for STILL_SAMPLES samples in a row, the drive 0 on each
+//! flicker: still, and this reading one quantum off the kept one for the first sample — or back
+//!          on the kept one; a second sample off it (or further off) is motion, and the kept
+//!          reading restarts there
+//! ```
+//! On a flicker the coasting damping does not act: a real departure costs one sample of braking.
+//! Measured over the families (BENCHMARKS.md, "A resting sled's flicker").
+
 #![deny(clippy::float_arithmetic)]
 
 /// Readings in the band before a sled one cell off the target may be held.
@@ -45,6 +62,9 @@ pub const HOLD_OFF_TARGET_SAMPLES: u16 = 64;
 pub const FINE_STEPS_MAX: u8 = 2;
 /// Samples after which a fine step that has not moved the sled two cells is over.
 pub const FINE_STEP_SAMPLES_MAX: u16 = 128;
+/// Samples of the same reading without drive after which a sled is still (module doc, "A resting
+/// sled's flicker").
+pub const STILL_SAMPLES: u16 = 8;
 /// One quantum, I16F16 raw.
 const QUANTUM: u64 = 1 << 16;
 
@@ -191,6 +211,51 @@ impl NearTarget {
     }
 }
 
+/// A sled without drive and its kept reading (module doc, "A resting sled's flicker").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StillReading {
+    /// The kept reading, I48F16 raw quanta.
+    y: i64,
+    /// Samples in a row it has been read without drive (saturating).
+    samples: u16,
+    /// The last reading was the first one a quantum off it.
+    off: bool,
+}
+
+impl StillReading {
+    /// Nothing kept yet.
+    pub const fn new() -> Self {
+        Self {
+            y: 0,
+            samples: 0,
+            off: false,
+        }
+    }
+
+    /// One sample: reading `y` (I48F16 raw quanta), `undriven`: the drive of the last sample was
+    /// 0. True when `y` is a still sled's flicker (or its return to the kept reading), not motion.
+    pub fn flicker(&mut self, y: i64, undriven: bool) -> bool {
+        let still = undriven && self.samples >= STILL_SAMPLES;
+        if !undriven {
+            self.samples = 0;
+        }
+        if y == self.y {
+            self.off = false;
+            if undriven {
+                self.samples = self.samples.saturating_add(1);
+            }
+            return still;
+        }
+        if still && !self.off && y.abs_diff(self.y) <= QUANTUM {
+            self.off = true;
+            return true;
+        }
+        (self.y, self.samples, self.off) = (y, 0, false);
+        false
+    }
+}
+
 /// `e` (I16F16 raw quanta) rounded to the nearest whole quantum, saturating.
 fn nearest_cell(e: i32) -> i32 {
     let rounded = (i64::from(e) + (1 << 15)) & !0xFFFF_i64;
@@ -288,6 +353,45 @@ mod tests {
         let v = at(&mut n, 1);
         assert!(v.edge);
         assert!(!n.fine_step(&v), "at most FINE_STEPS_MAX per seek");
+    }
+
+    /// Trips on a flicker taken for motion (or motion for a flicker): a still sled's one-sample
+    /// flicker and its return are flickers, a second sample off is motion and restarts the kept
+    /// reading, two cells off is motion at once, a drive restarts the count, and a sled read for
+    /// fewer than STILL_SAMPLES samples is not still.
+    #[test]
+    fn a_still_sleds_flicker_is_not_motion() {
+        let y0 = TARGET;
+        let q = i64::from(Q);
+        let mut s = StillReading::new();
+        assert!(!s.flicker(y0, true), "a new reading");
+        for k in 1..STILL_SAMPLES {
+            assert!(!s.flicker(y0, true), "not still yet at {k}");
+        }
+        assert!(!s.flicker(y0 + q, true), "off before it was still: motion");
+        let mut s = StillReading::new();
+        for _ in 0..=STILL_SAMPLES {
+            s.flicker(y0, true);
+        }
+        assert!(s.flicker(y0 + q, true), "a flicker");
+        assert!(s.flicker(y0, true), "its return");
+        assert!(s.flicker(y0 - q, true), "a flicker the other way");
+        assert!(!s.flicker(y0 - q, true), "a second sample off: motion");
+        assert!(!s.flicker(y0 - 2 * q, true), "moving on");
+        let mut s = StillReading::new();
+        for _ in 0..=STILL_SAMPLES {
+            s.flicker(y0, true);
+        }
+        assert!(!s.flicker(y0 + 2 * q, true), "two cells off: motion");
+        let mut s = StillReading::new();
+        for _ in 0..=STILL_SAMPLES {
+            s.flicker(y0, true);
+        }
+        assert!(!s.flicker(y0, false), "driven: not still");
+        assert!(
+            !s.flicker(y0 + q, true),
+            "the count restarted with the drive"
+        );
     }
 
     #[test]
