@@ -215,8 +215,9 @@ impl NearTarget {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StillReading {
-    /// The kept reading, I48F16 raw quanta.
-    y: i64,
+    /// The kept reading's low 32 bits, I48F16 raw quanta (compared by wrapping difference: a
+    /// reading 2^16 quanta away within one sample cannot alias it).
+    y: i32,
     /// Samples in a row it has been read without drive (saturating).
     samples: u16,
     /// The last reading was the first one a quantum off it.
@@ -236,6 +237,8 @@ impl StillReading {
     /// One sample: reading `y` (I48F16 raw quanta), `undriven`: the drive of the last sample was
     /// 0. True when `y` is a still sled's flicker (or its return to the kept reading), not motion.
     pub fn flicker(&mut self, y: i64, undriven: bool) -> bool {
+        // The low 32 bits (module doc of the field).
+        let y = y as i32;
         let still = undriven && self.samples >= STILL_SAMPLES;
         if !undriven {
             self.samples = 0;
@@ -247,7 +250,7 @@ impl StillReading {
             }
             return still;
         }
-        if still && !self.off && y.abs_diff(self.y) <= QUANTUM {
+        if still && !self.off && u64::from(y.wrapping_sub(self.y).unsigned_abs()) <= QUANTUM {
             self.off = true;
             return true;
         }
