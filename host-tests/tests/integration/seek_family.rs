@@ -47,13 +47,18 @@ use sledid_host::control::family_eval::FamilyOptions;
 use sledid_host::control::seek::SeekOptions;
 use sledid_host::control::seek::family::{SeekFamilyReport, evaluate, stats_table};
 
-fn family(seed: u64) -> SeekFamilyReport {
-    family_of(FamilyOptions {
+/// The family of `seed`: 200 plants, 100 seeks each, every other option the default.
+fn options(seed: u64) -> FamilyOptions {
+    FamilyOptions {
         plants: 200,
         seed,
         seeks: 100,
         ..FamilyOptions::default()
-    })
+    }
+}
+
+fn family(seed: u64) -> SeekFamilyReport {
+    family_of(options(seed))
 }
 
 fn family_of(options: FamilyOptions) -> SeekFamilyReport {
@@ -103,12 +108,9 @@ fn seeks_on_the_plant_family() {
 fn seeks_land_on_every_plant_with_its_exact_model() {
     for seed in [1, 7] {
         let r = family_of(FamilyOptions {
-            plants: 200,
-            seed,
-            seeks: 100,
             exact_prior: true,
             frozen: true,
-            ..FamilyOptions::default()
+            ..options(seed)
         });
         let s = &r.seek;
         assert!(s.ratio.median <= 1.05, "seed {seed}: {s:?}");
@@ -145,11 +147,8 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
 fn calibrated_seeks_on_the_plant_family() {
     for seed in [1, 7] {
         let r = family_of(FamilyOptions {
-            plants: 200,
-            seed,
-            seeks: 100,
             calibrate: true,
-            ..FamilyOptions::default()
+            ..options(seed)
         });
         let s = &r.seek;
         let all: Vec<f64> = r
@@ -213,12 +212,9 @@ fn calibrated_seeks_on_the_plant_family() {
 fn the_wider_family_fails_flagged() {
     for seed in [1, 7] {
         let r = family_of(FamilyOptions {
-            plants: 200,
-            seed,
-            seeks: 100,
             calibrate: true,
             ranges: FamilyRanges::wide(),
-            ..FamilyOptions::default()
+            ..options(seed)
         });
         let s = &r.seek;
         for p in &r.plants {

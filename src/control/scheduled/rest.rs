@@ -36,7 +36,6 @@
 //! seeds 1–7; `tests/integration/seek_family.rs`). The reference-following servo keeps the patient rule:
 //! eager, its family's clean plants fell from 97 % to 91 % (the fine steps' pulses), its largest
 //! holding error rose from 1.5 to 3.2 quanta.
-
 //!
 //! # A resting sled's flicker
 //! The settle law's coasting damping brakes a sled it sees moving. A reading that flickers a cell

@@ -227,18 +227,17 @@ impl CalibrationWatch {
             return false;
         }
         self.since = self.since.saturating_add(1);
-        if e > 1 << 16 {
-            let side = if signed > 0 { 1 } else { -1 };
-            if self.side != 0 && side != self.side {
-                self.crossings = self.crossings.saturating_add(1);
-            }
-            self.side = side;
-        }
         if e <= 1 << 16 {
             self.in_band = self.in_band.saturating_add(1);
             self.settled |= self.in_band >= SETTLED_SAMPLES;
         } else {
             self.in_band = 0;
+            // A side only more than a quantum off (module doc, "Ringing").
+            let side = signed.signum() as i8;
+            if self.side != 0 && side != self.side {
+                self.crossings = self.crossings.saturating_add(1);
+            }
+            self.side = side;
         }
         if self.settled {
             self.misses = 0;
