@@ -377,4 +377,10 @@ impl Twin {
     pub fn seek_stats(&self) -> Vec<SeekStats> {
         analysis::seek_stats(self)
     }
+
+    /// The same, with the samples the controller marked as fine steps (`fine_step[k]`) counted
+    /// apart from the limit-cycle pulses ([`analysis`], "Pulses and fine steps").
+    pub fn seek_stats_marked(&self, fine_step: &[bool]) -> Vec<SeekStats> {
+        analysis::seek_stats_marked(self, fine_step)
+    }
 }

@@ -88,6 +88,8 @@ pub struct RunBrief {
     pub unsettled: usize,
     /// Limit-cycle pulses over all seeks.
     pub limit_cycle_pulses: usize,
+    /// Fine steps that landed, over all seeks (not pulses).
+    pub fine_steps: usize,
     /// Largest |target − y| read while holding, quanta (0 without Hold).
     pub hold_error_max_quanta: f64,
     /// Largest |target − x| of the true position while holding, quanta.
@@ -107,6 +109,7 @@ impl RunBrief {
             settling_p90_ms: s.settling_ms.p90,
             unsettled: s.unsettled,
             limit_cycle_pulses: s.limit_cycle_pulses,
+            fine_steps: s.fine_steps,
             hold_error_max_quanta: s.hold_error_quanta.max,
             hold_true_error_max_quanta: s.hold_true_error_quanta.max,
             fallbacks: s.fallbacks,

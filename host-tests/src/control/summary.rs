@@ -82,8 +82,11 @@ pub struct ControlSummary {
     pub reference_bound_ms: Spread,
     /// Overshoot, quanta (`p90` included).
     pub overshoot_quanta: Spread,
-    /// Pulses above breakaway in the last half of every dwell.
+    /// Pulses above breakaway in the last half of every dwell, fine steps that landed not
+    /// counted (`twin::analysis`, "Pulses and fine steps").
     pub limit_cycle_pulses: usize,
+    /// Fine steps that moved the sled into the target cell in the last half of every dwell.
+    pub fine_steps: usize,
     /// Pulses above breakaway while in Hold (scheduled only).
     pub hold_pulses: usize,
     /// |target − y| read on every sample in Hold, quanta (scheduled only; zeros without Hold).
@@ -139,7 +142,11 @@ pub(crate) fn summarize(
     let plant = twin.params().plant.clone();
     let ts_ms = plant.ts_s * 1e3;
     let breakaway_v = plant.static_n / plant.force_per_volt_n_per_v;
-    let stats = twin.seek_stats();
+    let fine_step: Vec<bool> = trace
+        .iter()
+        .map(|(_, f)| f.contains(ControlFlags::FINE_STEP))
+        .collect();
+    let stats = twin.seek_stats_marked(&fine_step);
     let samples = twin.samples();
     let (mut settle, mut after, mut bound, mut over) = (vec![], vec![], vec![], vec![]);
     let mut unsettled = 0;
@@ -210,6 +217,7 @@ pub(crate) fn summarize(
         reference_bound_ms: Spread::of(&bound),
         overshoot_quanta: Spread::of(&over),
         limit_cycle_pulses: stats.iter().map(|s| s.limit_cycle.pulses).sum(),
+        fine_steps: stats.iter().map(|s| s.limit_cycle.fine_steps).sum(),
         hold_pulses,
         hold_error_quanta: Spread::of(&hold_errors),
         hold_true_error_quanta: Spread::of(&hold_true_errors),

@@ -8,6 +8,18 @@
 //! paper's ±1-quantum hunting stays within `|e| ≤ 1` and reverses at every swing, so it is counted
 //! from its first reversal — while a sled too slow to arrive in the first half of the dwell is
 //! still seeking, and its final, monotone approach is not hunting.
+//!
+//! # Pulses and fine steps
+//! A pulse is a run of samples whose `|u|` exceeds the breakaway voltage. When the controller
+//! marks its samples (`fine_step`, e.g. the scheduled controller's `FINE_STEP` flag), a fine step
+//! that moves the sled into the target cell is not hunting and is counted apart:
+//! ```text
+//! fine step: the pulses from one that carries a marked sample (a new mark's first sample starts a
+//!            new one) until the readings stay in the target cell for FINE_STEP_LANDED_SAMPLES in a
+//!            row without a pulse, or the window ends in the target cell: one fine step
+//! otherwise: a fine step that does not land there — its pulses are limit-cycle pulses
+//! ```
+//! Every pulse of an unmarked recording (the baseline's) is a limit-cycle pulse.
 
 use serde::{Deserialize, Serialize};
 
@@ -15,6 +27,10 @@ use super::Twin;
 
 /// Fraction of each dwell, at its end, in which the limit cycle is measured.
 pub const LIMIT_CYCLE_WINDOW_FRACTION: f64 = 0.5;
+
+/// Readings in the target cell in a row, without a pulse, by which a fine step has landed (the
+/// scheduled controller's still count, `sledid::control::scheduled::rest::STILL_SAMPLES`).
+pub const FINE_STEP_LANDED_SAMPLES: usize = 8;
 
 /// Settling and limit-cycle statistics of one seek.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -51,14 +67,23 @@ pub struct LimitCycleStats {
     pub u_rms_v: f64,
     /// Largest `|u|` in the window, V.
     pub u_peak_v: f64,
-    /// Runs of samples whose `|u|` exceeds the breakaway voltage `static_n / force_per_volt`.
+    /// Runs of samples whose `|u|` exceeds the breakaway voltage `static_n / force_per_volt`,
+    /// fine steps that landed not counted (module doc, "Pulses and fine steps").
     pub pulses: usize,
     /// Mean length of those runs, s.
     pub mean_pulse_s: Option<f64>,
+    /// Fine steps that moved the sled into the target cell (module doc).
+    pub fine_steps: usize,
 }
 
-/// The statistics of every ended seek of `twin`.
+/// The statistics of every ended seek of `twin`, every pulse a limit-cycle pulse.
 pub fn seek_stats(twin: &Twin) -> Vec<SeekStats> {
+    seek_stats_marked(twin, &[])
+}
+
+/// The statistics of every ended seek of `twin`; `fine_step[k]`: the controller marked sample `k`
+/// a fine step (samples past the slice's end are unmarked).
+pub fn seek_stats_marked(twin: &Twin, fine_step: &[bool]) -> Vec<SeekStats> {
     let params = twin.params();
     let ts_s = params.plant.ts_s;
     let breakaway_v = params.plant.static_n / params.plant.force_per_volt_n_per_v;
@@ -109,22 +134,31 @@ pub fn seek_stats(twin: &Twin) -> Vec<SeekStats> {
             .iter()
             .map(|s| s.u_v)
             .collect();
+        let window_fine = fine_step.get(window_start..end).unwrap_or(&[]);
         stats.push(SeekStats {
             target_counts: target,
             step_counts,
             first_within_one_s: first_within.map(|i| i as f64 * ts_s),
             settling_time_s: settled_index.map(|i| i as f64 * ts_s),
             overshoot_counts,
-            limit_cycle: limit_cycle_stats(window_errors, &window_u, ts_s, breakaway_v),
+            limit_cycle: limit_cycle_stats(
+                window_errors,
+                &window_u,
+                window_fine,
+                ts_s,
+                breakaway_v,
+            ),
         });
     }
     stats
 }
 
-/// Limit-cycle statistics of a window of integer errors and drive voltages.
+/// Limit-cycle statistics of a window of integer errors and drive voltages; `fine_step[i]`: the
+/// controller marked sample `i` a fine step (module doc, "Pulses and fine steps").
 pub fn limit_cycle_stats(
     errors_counts: &[i64],
     u_v: &[f64],
+    fine_step: &[bool],
     ts_s: f64,
     breakaway_v: f64,
 ) -> LimitCycleStats {
@@ -146,19 +180,8 @@ pub fn limit_cycle_stats(
         }
         _ => None,
     };
-    let mut pulses = 0;
-    let mut pulse_samples = 0;
-    let mut in_pulse = false;
-    for u in u_v {
-        let strong = u.abs() > breakaway_v;
-        if strong {
-            pulse_samples += 1;
-            if !in_pulse {
-                pulses += 1;
-            }
-        }
-        in_pulse = strong;
-    }
+    let (pulses, pulse_samples, fine_steps) =
+        count_pulses(errors_counts, u_v, fine_step, breakaway_v);
     LimitCycleStats {
         window_s: errors_counts.len() as f64 * ts_s,
         max_abs_error_counts: errors_counts.iter().map(|e| e.abs()).max().unwrap_or(0),
@@ -169,5 +192,152 @@ pub fn limit_cycle_stats(
         u_peak_v: u_v.iter().fold(0.0, |peak: f64, u| peak.max(u.abs())),
         pulses,
         mean_pulse_s: (pulses > 0).then(|| pulse_samples as f64 * ts_s / pulses as f64),
+        fine_steps,
+    }
+}
+
+/// One run of samples above the breakaway voltage: `[start, end)`, and where the fine step it
+/// belongs to began (the first sample of the mark's stretch), if a sample of it is marked.
+struct Pulse {
+    start: usize,
+    end: usize,
+    fine_start: Option<usize>,
+}
+
+/// (limit-cycle pulses, their samples, fine steps that landed) of a window (module doc).
+fn count_pulses(
+    errors_counts: &[i64],
+    u_v: &[f64],
+    fine_step: &[bool],
+    breakaway_v: f64,
+) -> (usize, usize, usize) {
+    let marked = |i: usize| fine_step.get(i).copied().unwrap_or(false);
+    let mut runs: Vec<Pulse> = Vec::new();
+    for (i, u) in u_v.iter().enumerate() {
+        if u.abs() <= breakaway_v {
+            continue;
+        }
+        match runs.last_mut() {
+            Some(run) if run.end == i => run.end = i + 1,
+            _ => runs.push(Pulse {
+                start: i,
+                end: i + 1,
+                fine_start: None,
+            }),
+        }
+    }
+    for run in &mut runs {
+        run.fine_start = (run.start..run.end).find(|&i| marked(i)).map(|first| {
+            let mut begin = first;
+            while begin > 0 && marked(begin - 1) {
+                begin -= 1;
+            }
+            begin
+        });
+    }
+    // Landed between `from` and `to`: FINE_STEP_LANDED_SAMPLES readings in the target cell in a
+    // row, or (at the window's end) the last reading in it.
+    let landed = |from: usize, to: usize| {
+        let gap = errors_counts.get(from..to).unwrap_or(&[]);
+        let mut in_cell = 0;
+        for e in gap {
+            in_cell = if *e == 0 { in_cell + 1 } else { 0 };
+            if in_cell >= FINE_STEP_LANDED_SAMPLES {
+                return true;
+            }
+        }
+        to >= errors_counts.len() && in_cell > 0
+    };
+    let (mut pulses, mut pulse_samples, mut fine_steps) = (0, 0, 0);
+    // The fine step under way: where it began, its pulses and their samples.
+    let mut open: Option<(usize, usize, usize)> = None;
+    let mut previous_end = 0;
+    for run in &runs {
+        if open.is_some() && landed(previous_end, run.start) {
+            fine_steps += 1;
+            open = None;
+        }
+        let samples = run.end - run.start;
+        open = match (run.fine_start, open) {
+            (Some(begin), Some((open_begin, n, m))) if begin == open_begin => {
+                Some((begin, n + 1, m + samples))
+            }
+            (Some(begin), Some((_, n, m))) => {
+                pulses += n;
+                pulse_samples += m;
+                Some((begin, 1, samples))
+            }
+            (Some(begin), None) => Some((begin, 1, samples)),
+            (None, Some((begin, n, m))) => Some((begin, n + 1, m + samples)),
+            (None, None) => {
+                pulses += 1;
+                pulse_samples += samples;
+                None
+            }
+        };
+        previous_end = run.end;
+    }
+    if let Some((_, n, m)) = open {
+        if landed(previous_end, errors_counts.len()) {
+            fine_steps += 1;
+        } else {
+            pulses += n;
+            pulse_samples += m;
+        }
+    }
+    (pulses, pulse_samples, fine_steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BREAKAWAY_V: f64 = 0.1;
+
+    /// (pulses, fine steps) of a window written as one character per sample: `.` no drive,
+    /// `P` a strong drive, `F` a strong drive marked a fine step, `f` a marked weak drive; the
+    /// readings' errors are `errors`.
+    fn classify(drive: &str, errors: &[i64]) -> (usize, usize) {
+        assert_eq!(drive.len(), errors.len());
+        let u: Vec<f64> = drive
+            .chars()
+            .map(|c| if matches!(c, 'P' | 'F') { 1.0 } else { 0.0 })
+            .collect();
+        let fine: Vec<bool> = drive.chars().map(|c| matches!(c, 'F' | 'f')).collect();
+        let s = limit_cycle_stats(errors, &u, &fine, 1e-3, BREAKAWAY_V);
+        (s.pulses, s.fine_steps)
+    }
+
+    /// A fine step that lands (its own pulses and the braking after it) is one fine step; one
+    /// that lands a cell past is two pulses (trips on fine steps counted without landing).
+    #[test]
+    fn a_fine_step_that_lands_is_not_a_pulse() {
+        let landed = [1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+        assert_eq!(classify("ffFF.P.......", &landed), (0, 1));
+        let past = [1, 1, 1, 0, -1, -1, -1, -1, -1, -1, -1, -1, -1];
+        assert_eq!(classify("ffFF.P.......", &past), (2, 0));
+    }
+
+    /// Landing needs FINE_STEP_LANDED_SAMPLES readings in the target cell before the next pulse
+    /// (trips on a shorter count, e.g. one sample in the cell on the way through), or the window
+    /// ending in it (trips if the window's end is not looked at).
+    #[test]
+    fn landing_is_eight_readings_in_the_cell_or_the_window_ending_there() {
+        let through = [1, 1, 0, 0, 0, 0, 0, 0, 0, -1, -1, -1];
+        assert_eq!(classify("FF.......P..", &through), (2, 0));
+        let stays = [1, 1, 0, 0, 0, 0, 0, 0, 0, 0, -1, -1];
+        assert_eq!(classify("FF........P.", &stays), (1, 1));
+        assert_eq!(classify("fFF..", &[1, 1, 1, 0, 0]), (0, 1));
+        assert_eq!(classify("fFF..", &[1, 1, 1, 0, -1]), (1, 0));
+    }
+
+    /// A second mark starts a second fine step: the first, which did not land, is pulses (trips
+    /// if marks are merged); unmarked pulses are pulses (the baseline's hunting).
+    #[test]
+    fn a_new_mark_is_a_new_fine_step_and_unmarked_pulses_are_pulses() {
+        let two = [1, 1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+        assert_eq!(classify("FF.FF.........", &two), (1, 1));
+        let hunt = [1, -1, 1, -1, 1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+        assert_eq!(classify("P.P.P.........", &hunt), (3, 0));
     }
 }

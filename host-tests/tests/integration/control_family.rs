@@ -6,12 +6,12 @@
 //!
 //! | target | seed 1 | seed 7 | asserted here |
 //! |---|---|---|---|
-//! | 0 pulses and 0 unsettled seeks on ≥ 99 % of plants | 99.0 % | 99.0 % | ≥ 98.5 % (the floor over seeds 1–7, below) |
-//! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 98.5 % | 97.5 % | ≥ 95 % |
-//! | identified no worse than frozen on every plant | 2 plants > 1.02× | 0 | ≤ 5 (target not met) |
-//! | ≥ 20 % faster than frozen where the prior is > 30 % off | 80.5 % of 195 | 85.7 % of 196 | ≥ 75 % (target: all) |
-//! | holding error ≤ 1 quantum | true ≤ 1.49, 0 plants ≥ 1.5 (read ≤ 2); 196 plants over 1 | 1.49, 0; 195 | ≤ 1 plant per family ≥ 1.5, none ≥ 2 (target not met) |
-//! | friction identified shortens settling on high-friction plants | 0.987× linear-only | 0.984× | < 1 |
+//! | 0 pulses and 0 unsettled seeks on ≥ 99 % of plants | 98.5 % | 100.0 % | ≥ 98.5 % (the floor over seeds 1–7, below) |
+//! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 99.0 % | 97.5 % | ≥ 95 % |
+//! | identified no worse than frozen on every plant | 3 plants > 1.02× (1.065, 1.03, 1.029) | 0 | ≤ 5 (target not met) |
+//! | ≥ 20 % faster than frozen where the prior is > 30 % off | 81.5 % of 195 | 85.2 % of 196 | ≥ 75 % (target: all) |
+//! | holding error ≤ 1 quantum | true ≤ 1.36, 0 plants ≥ 1.5 (read ≤ 2); 7 plants over 1 | 1.18, 0; 2 | ≤ 12 plants per family over 1, ≤ 1 at 1.5 or more, none ≥ 2 (target not met) |
+//! | friction identified shortens settling on high-friction plants | 0.985× linear-only | 0.985× | < 1 |
 //! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 0 | 0, every variant (1 on seed 7's linear-only variant, plant 24, before the runaway test required |e| itself to grow) |
 //!
 //! The holding error as a statistic over families: the largest true error over 200 plants moves
@@ -25,12 +25,19 @@
 //! seed, the largest 1.49 on every seed (before it 2, 1, 0, 1, 0, 0, 0 on seeds 1, 2, 3, 4, 5,
 //! 6, 7, largest 1.62, 1.87, 1.49, 2.11, 1.49, 1.49, 1.49: a resting sled kicked off by a
 //! flicker, held a cell further). Asserted: at most 1 per family (one plant of spread) and none
-//! at 2 quanta or more. The target (≤ 1 quantum) is still not met: Hold accepts a sled one cell
-//! off after 64 readings in the band (`BENCHMARKS.md`, "The holding error ≤ 1 quantum").
+//! at 2 quanta or more. Since the reference-following servo holds a sled one cell off only once
+//! its fine steps are spent (`control::scheduled::rest`, "The reference-following servo's
+//! holding error"; measured 2026-11-28, seeds 1, 7, 2, 3, 4, 5, 6): plants over 1 quantum 7, 2,
+//! 5, 9, 4, 6, 3 (before: 193–198 on every seed), the largest 1.36, 1.18, 1.41, 1.40, 1.25,
+//! 1.46, 1.36. Asserted: at most 12 per family over 1 quantum (the largest count over the seven
+//! families and a margin of spread; without the rule ≈ 195 trip it). The target (≤ 1 quantum)
+//! is still not met: a sticking sled's fine step breaks it away past the target cell, and it is
+//! held one cell off once both are spent (`BENCHMARKS.md`, "The holding error ≤ 1 quantum").
 //!
-//! Clean plants over seeds 1–7: 99.0, 99.0, 98.5, 98.5, 99.5, 99.5, 100.0 % (seeds 1, 7, 2, 3, 5,
-//! 6, 4; 2026-11-28, with the still sled's flicker rule — before it 99.0, 99.5, 99.0, 98.5, 99.5,
-//! 99.0, 100.0 %), from 97.0, 94.5, 93.0, 94.5, 96.0, 96.5, 95.0 % before two changes: each plant's seek
+//! Clean plants over seeds 1–7: 98.5, 100.0, 98.5, 99.0, 99.0, 100.0, 99.0 % (seeds 1, 7, 2, 3, 5,
+//! 6, 4; 2026-11-28, with the fine steps before an off-target Hold — mean 99.14 %, as before it:
+//! 99.0, 99.0, 98.5, 98.5, 99.5, 99.5, 100.0 %; with the still sled's flicker rule — before that
+//! 99.0, 99.5, 99.0, 98.5, 99.5, 99.0, 100.0 %), from 97.0, 94.5, 93.0, 94.5, 96.0, 96.5, 95.0 % before two changes: each plant's seek
 //! window is at least three times its 2,000-track minimum-time seek (`dwell_for_plant`, the seek
 //! pass's rule: the 0.3 s window was shorter than the slowest sleds' fastest seek, up to 0.36 s, and
 //! counted the plant's physics as the servo's unsettled seeks) — 99.0 / 98.0 % on seeds 1 / 7 with
@@ -45,7 +52,8 @@
 
 use sledid_host::control::family_eval::{FamilyOptions, FamilyStats, evaluate, stats_table};
 
-fn family(seed: u64) -> (FamilyStats, usize) {
+/// The statistics, the plants held 1.5 quanta or more off and those held more than 1 off.
+fn family(seed: u64) -> (FamilyStats, usize, usize) {
     let options = FamilyOptions {
         plants: 200,
         seed,
@@ -59,14 +67,19 @@ fn family(seed: u64) -> (FamilyStats, usize) {
         .iter()
         .filter(|p| p.identified.hold_true_error_max_quanta >= 1.5)
         .count();
-    println!("family seed {seed}: plants held ≥ 1.5 quanta off: {two_off}");
-    (report.stats, two_off)
+    let over_one = report
+        .plants
+        .iter()
+        .filter(|p| p.identified.hold_true_error_max_quanta > 1.0)
+        .count();
+    println!("family seed {seed}: plants held ≥ 1.5 quanta off: {two_off}, over 1: {over_one}");
+    (report.stats, two_off, over_one)
 }
 
 #[test]
 fn the_servo_holds_up_on_the_plant_family() {
     for seed in [1, 7] {
-        let (s, two_off) = family(seed);
+        let (s, two_off, over_one) = family(seed);
         assert_eq!(s.plants, 200);
         assert!(s.clean >= 0.985, "seed {seed}: clean {}", s.clean);
         assert!(
@@ -96,6 +109,10 @@ fn the_servo_holds_up_on_the_plant_family() {
         assert!(
             two_off <= 1,
             "seed {seed}: {two_off} plants held two cells off"
+        );
+        assert!(
+            over_one <= 12,
+            "seed {seed}: {over_one} plants held more than a quantum off"
         );
         assert!(
             s.hold_true_error_max_quanta < 2.0,
@@ -135,7 +152,7 @@ fn holding_error_spread_over_seeds() {
         .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
         .unwrap_or_else(|| (1..=8).collect());
     for seed in seeds {
-        let (s, off) = family(seed);
+        let (s, off, _) = family(seed);
         println!(
             "SPREAD seed {seed}: hold true max {:.3}, plants ≥ 1.5 off {off}, clean {:.3} (frozen {:.3}), ratio≤0.7 {:.3}, worse {} , gain20 {:.3}, hf ratio {:.3}, stops {}/{}",
             s.hold_true_error_max_quanta,

@@ -198,10 +198,13 @@ fn identified_friction_map_is_within_a_quarter_of_the_level() {
 /// Transfers over 40 seeks: Seek → Settle is an initial-value transfer (the integrator starts at
 /// zero: the seek's feedforward does not carry over — trips on a transfer that keeps it);
 /// Settle → Seek (a new seek before the sled reached Hold) keeps the drive the sled sees, h(u),
-/// within 2 LSB (trips on a transfer that re-initialises nothing). With the twin's 300 ms dwells
-/// most seeks start from Hold (1 Settle → Seek transfer in 40, measured); with 20 ms dwells each
-/// new seek interrupts the settle: 40 Seek → Settle and 38 Settle → Seek transfers, all 38 checked
-/// (none limited or saturated), measured and asserted.
+/// within 2 LSB of what the compensation map can deliver (its table's round trip, up to 44 LSB
+/// near zero drive, measured) — trips on a transfer that re-initialises nothing. With the twin's
+/// 300 ms dwells most seeks start from Hold (1 Settle → Seek transfer in 40, measured); with 20 ms
+/// dwells most new seeks interrupt the settle: 40 Seek → Settle and 34 Settle → Seek transfers,
+/// all 34 checked (none limited or saturated), measured and asserted. (38 before 2026-11-28: a
+/// sled one cell off waited 64 readings, 29 ms, before Hold; now its fine step brings it into the
+/// target cell and 6 of the 40 seeks start from Hold, 2 before.)
 #[test]
 fn region_transfers_are_bumpless() {
     const DWELL_S: f64 = 0.02;
@@ -226,7 +229,7 @@ fn region_transfers_are_bumpless() {
         5,
     )
     .unwrap();
-    let mut checked = 0;
+    let (mut checked, mut largest_round_trip) = (0, 0);
     let mut controller = |r: f64, y: f64| {
         let out = config.step_law(
             &mut state,
@@ -245,12 +248,17 @@ fn region_transfers_are_bumpless() {
             if out.flags.contains(ControlFlags::TRANSFER_LIMITED) {
                 limited += 1;
             } else if !out.flags.contains(ControlFlags::OUTPUT_SATURATED) {
-                // Bumpless in the drive the sled sees, h(u) (the compensation map's table may
-                // shift u itself by its interpolation error).
+                // Bumpless in the drive the sled sees, h(u): the transfer asks for the linear
+                // drive v = h(u_prev), and the compensation map delivers h⁻¹(v) within its
+                // table's round-trip error |h(h⁻¹(v)) − v| (near v = 0, where h⁻¹ is steep,
+                // tens of LSB; after an uncompensated fine step the drive is there).
                 let h = |u: SignalI16F16| map.forward(u.raw());
+                let v = h(previous_u);
+                let round_trip = (map.forward(map.apply(v)) - v).abs();
+                largest_round_trip = largest_round_trip.max(round_trip);
                 checked += 1;
                 assert!(
-                    (h(out.u) - h(previous_u)).abs() <= 2,
+                    (h(out.u) - v).abs() <= 2 + round_trip,
                     "{previous_region:?} → {:?}: {:?} → {:?}",
                     out.region,
                     previous_u,
@@ -264,11 +272,11 @@ fn region_transfers_are_bumpless() {
     };
     twin.run(&mut controller);
     println!(
-        "{settles} seek → settle transfers, {transfers} settle → seek ({checked} checked for bumps), {limited} limited by the integrator clamp"
+        "{settles} seek → settle transfers, {transfers} settle → seek ({checked} checked for bumps), {limited} limited by the integrator clamp, largest round trip of the map {largest_round_trip} LSB"
     );
     assert!(settles >= 40);
-    assert!(transfers >= 38, "{transfers}");
-    assert!(checked >= 38, "{checked}");
+    assert!(transfers >= 34, "{transfers}");
+    assert!(checked >= 34, "{checked}");
     assert_eq!(limited, 0);
 }
 

@@ -890,6 +890,7 @@ impl ScheduledConfig {
             g.rest_samples,
             g.rest_speed_i16f16,
             s.time_optimal,
+            state.last_u != 0,
         );
         let previous = state.region;
         let mut region = self.selector.select(

@@ -43,6 +43,8 @@ pub struct SeekBrief {
     pub failing_unreported: usize,
     /// Limit-cycle pulses.
     pub limit_cycle_pulses: usize,
+    /// Fine steps that landed (not pulses).
+    pub fine_steps: usize,
     /// The safety layer's stop, if it latched one.
     pub safe_stop: Option<super::run::SafeStop>,
     /// Per seek: distance (tracks) and access / bound (not in the JSON).
@@ -62,6 +64,7 @@ impl SeekBrief {
             settled_reported: summary.settled_reported,
             failing_unreported: summary.failing_unreported,
             limit_cycle_pulses: summary.limit_cycle_pulses,
+            fine_steps: summary.fine_steps,
             safe_stop: summary.safe_stop,
             ratios: rows
                 .iter()
@@ -110,6 +113,8 @@ pub struct SeekFamilyStats {
     pub unsettled: usize,
     /// Limit-cycle pulses, all plants.
     pub limit_cycle_pulses: usize,
+    /// Fine steps that landed, all plants.
+    pub fine_steps: usize,
     /// Plants whose safety layer latched a stop (calibration's refusals included).
     pub safe_stops: usize,
     /// Unsettled seeks the servo reported as seek errors, all plants.
@@ -140,6 +145,7 @@ impl SeekFamilyStats {
             clean: briefs.clone().filter(|b| b.clean()).count() as f64 / n.max(1) as f64,
             unsettled: briefs.clone().map(|b| b.unsettled).sum(),
             limit_cycle_pulses: briefs.clone().map(|b| b.limit_cycle_pulses).sum(),
+            fine_steps: briefs.clone().map(|b| b.fine_steps).sum(),
             safe_stops: briefs.clone().filter(|b| b.safe_stop.is_some()).count(),
             unsettled_reported: briefs.clone().map(|b| b.unsettled_reported).sum(),
             settled_reported: briefs.clone().map(|b| b.settled_reported).sum(),
@@ -290,7 +296,7 @@ pub fn evaluate(
 pub fn stats_table(r: &SeekFamilyReport) -> String {
     let row = |name: &str, s: &SeekFamilyStats, n: &SeekSummary| {
         format!(
-            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} ({} reported; settled but reported {}) | {} | {} | {} | {:.1} |\n",
+            "| {name} | {:.2} | {:.2} | {:.2} | {:.1} % | {} ({} reported; settled but reported {}) | {} | {} | {} | {} | {:.1} |\n",
             s.ratio.median,
             s.ratio.p95,
             s.ratio_long_median,
@@ -299,13 +305,14 @@ pub fn stats_table(r: &SeekFamilyReport) -> String {
             s.unsettled_reported,
             s.settled_reported,
             s.limit_cycle_pulses,
+            s.fine_steps,
             s.safe_stops,
             s.unflagged_failures,
             n.access_ms.median
         )
     };
     format!(
-        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | pulses | safe stops | failing plants, nothing flagged (no stop; a seek unsettled or with a pulse and not reported) | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
+        "| controller | access / bound median | p95 | median, ≥ {LONG_SEEK_TRACKS} tracks | plants with 0 unsettled, 0 pulses | unsettled | limit-cycle pulses | fine steps (landed; not pulses) | safe stops | failing plants, nothing flagged (no stop; a seek unsettled or with a pulse and not reported) | nominal sled: median access (ms) |\n|---|---|---|---|---|---|---|---|---|---|---|\n{}{}\nNominal sled: the seek mode's median access is {:.2}× shorter than the reference-following servo's.\n",
         row("seek mode (time-optimal seeks)", &r.seek, &r.nominal.seek),
         row(
             "reference-following (30 ms S-curve)",

@@ -3,7 +3,7 @@
 //! of `sledid seek`'s `summary.json`.
 
 use serde::Serialize;
-use sledid::control::ScheduledDesign;
+use sledid::control::{ControlFlags, ScheduledDesign};
 use sledid::servo::{CalibrationDesign, Identification, ServoOptions};
 
 use super::access::{Quantiles, access_samples, min_dwell_samples};
@@ -184,8 +184,10 @@ pub struct SeekRow {
     /// Overshoot beyond the target after the first entry into ±1 quantum, quanta.
     pub overshoot_quanta: i64,
     /// Pulses above breakaway in the last half of the dwell, from settling and the first stop
-    /// on (`twin::analysis`).
+    /// on, fine steps that landed not counted (`twin::analysis`, "Pulses and fine steps").
     pub limit_cycle_pulses: usize,
+    /// Fine steps that moved the sled into the target cell, in the same window.
+    pub fine_steps: usize,
     /// The servo reported a seek error during this seek (`ServoFlags::SEEK_ERROR`).
     pub seek_error: bool,
 }
@@ -209,6 +211,8 @@ pub struct SeekSummary {
     pub overshoot_quanta: Quantiles,
     /// Limit-cycle pulses over every seek.
     pub limit_cycle_pulses: usize,
+    /// Fine steps that landed, over every seek.
+    pub fine_steps: usize,
     /// Seeks that did not stay within ±1 quantum for 10 ms before their end.
     pub unsettled: usize,
     /// Unsettled seeks the servo reported (a seek error during the seek).
@@ -282,7 +286,7 @@ impl SeekSummary {
             .health
             .map_or(String::new(), |h| format!("; {}", h.line()));
         format!(
-            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {}, unsettled {} ({} reported as seek errors; settled but reported {}){recal}{health}{stop}",
+            "{}: access median / p95 / max {:.2} / {:.2} / {:.2} ms, access / bound median / p95 / max {:.2} / {:.2} / {:.2} (≥ 200 tracks: {:.2}), overshoot max {:.0} quanta, pulses {} (fine steps {}), unsettled {} ({} reported as seek errors; settled but reported {}){recal}{health}{stop}",
             self.controller,
             self.access_ms.median,
             self.access_ms.p95,
@@ -293,6 +297,7 @@ impl SeekSummary {
             self.ratio_long_median,
             self.overshoot_quanta.max,
             self.limit_cycle_pulses,
+            self.fine_steps,
             self.unsettled,
             self.unsettled_reported,
             self.settled_reported
@@ -316,6 +321,7 @@ impl SeekSummary {
             bound_ms: Quantiles::of(&pick(&|r| r.bound_ms)),
             overshoot_quanta: Quantiles::of(&pick(&|r| Some(r.overshoot_quanta as f64))),
             limit_cycle_pulses: rows.iter().map(|r| r.limit_cycle_pulses).sum(),
+            fine_steps: rows.iter().map(|r| r.fine_steps).sum(),
             unsettled: rows.iter().filter(|r| !r.settled).count(),
             unsettled_reported: rows.iter().filter(|r| !r.settled && r.seek_error).count(),
             settled_reported: rows.iter().filter(|r| r.settled && r.seek_error).count(),
@@ -418,21 +424,32 @@ pub fn run_seeks_with_faults(
 /// The rows of every ended seek of `run`, with the servo's seek errors.
 pub fn rows(run: &ControlRun) -> Vec<SeekRow> {
     let errors = run.seek_error_per_seek();
-    let mut rows = rows_of(&run.twin);
+    let fine_step: Vec<bool> = run
+        .trace
+        .iter()
+        .map(|(_, f)| f.contains(ControlFlags::FINE_STEP))
+        .collect();
+    let mut rows = rows_marked(&run.twin, &fine_step);
     for row in &mut rows {
         row.seek_error = errors.get(row.index).copied().unwrap_or(false);
     }
     rows
 }
 
-/// The rows of every ended seek of a twin recording, whatever controller closed its loop.
+/// The rows of every ended seek of a twin recording, whatever controller closed its loop (every
+/// pulse a limit-cycle pulse).
 pub fn rows_of(twin: &Twin) -> Vec<SeekRow> {
+    rows_marked(twin, &[])
+}
+
+/// The same, with the samples the controller marked as fine steps counted apart.
+fn rows_marked(twin: &Twin, fine_step: &[bool]) -> Vec<SeekRow> {
     let plant = &twin.params().plant;
     let ts_ms = plant.ts_s * 1e3;
     let min_dwell = min_dwell_samples(plant.ts_s);
     let samples = twin.samples();
     // `seek_stats` has one entry per ended seek, in order: the seeks kept below.
-    let mut stats = twin.seek_stats().into_iter();
+    let mut stats = twin.seek_stats_marked(fine_step).into_iter();
     let mut previous_target = 0;
     let mut rows = Vec::new();
     for (index, seek) in twin.seeks().iter().enumerate() {
@@ -464,6 +481,7 @@ pub fn rows_of(twin: &Twin) -> Vec<SeekRow> {
             ratio: bound_ms.map(|b| access_ms / b),
             overshoot_quanta: st.as_ref().map_or(0, |s| s.overshoot_counts),
             limit_cycle_pulses: st.as_ref().map_or(0, |s| s.limit_cycle.pulses),
+            fine_steps: st.as_ref().map_or(0, |s| s.limit_cycle.fine_steps),
             seek_error: false,
         });
     }
