@@ -36,8 +36,9 @@ impl ControlFlags {
     /// A fine step's reading toward the target restarted the integrator
     /// (`scheduled::rest`: the sled broke away; the settle law brakes it).
     pub const INTEGRATOR_RESTARTED: Self = Self(1 << 12);
-    /// Settle, coasting: this reading is a still sled's flicker, not motion; nothing damps
-    /// (`scheduled::rest`, "A resting sled's flicker").
+    /// Settle, coasting: this reading is a still sled's flicker, or (reference-following) a slow
+    /// sled's return after a kick — not motion; nothing damps (`scheduled::rest`, "A resting
+    /// sled's flicker", "A kick's return").
     pub const FLICKER: Self = Self(1 << 13);
 
     /// All flags with their names, in bit order.

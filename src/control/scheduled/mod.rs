@@ -1052,7 +1052,9 @@ impl ScheduledConfig {
     ) -> ControlOutput {
         tally.flags.insert(ControlFlags::COASTING);
         state.integral_i32f32 = 0;
-        let flicker = state.still.flicker(s.y.raw(), state.last_u == 0);
+        let flicker = state
+            .still
+            .flicker(s.y.raw(), state.last_u == 0, !s.time_optimal);
         tally.flags.set_if(ControlFlags::FLICKER, flicker);
         let g = self.gains_in_use(&state.gains, s.falling_back);
         let moving = if flicker {
