@@ -110,12 +110,12 @@ pub struct ControlSummary {
 
 impl ControlSummary {
     /// The header of [`Self::table_row`].
-    pub const TABLE_HEADER: &'static str = "| plant | controller | settling median / p90 / max (ms) | after arrival, median (ms) | reference bound (ms) | overshoot median / max (quanta) | limit-cycle pulses | hold pulses | unsettled | fallbacks |\n|---|---|---|---|---|---|---|---|---|---|";
+    pub const TABLE_HEADER: &'static str = "| plant | controller | settling median / p90 / max (ms) | after arrival, median (ms) | reference bound (ms) | overshoot median / max (quanta) | limit-cycle pulses | fine steps (landed) | hold pulses | unsettled | fallbacks |\n|---|---|---|---|---|---|---|---|---|---|---|";
 
     /// One Markdown table row (the columns of [`Self::TABLE_HEADER`]) for the plant `name`.
     pub fn table_row(&self, name: &str) -> String {
         format!(
-            "| {name} | {:?} | {:.1} / {:.1} / {:.1} | {:.1} | {:.1} | {:.0} / {:.0} | {} | {} | {} | {} |",
+            "| {name} | {:?} | {:.1} / {:.1} / {:.1} | {:.1} | {:.1} | {:.0} / {:.0} | {} | {} | {} | {} | {} |",
             self.controller,
             self.settling_ms.median,
             self.settling_ms.p90,
@@ -125,6 +125,7 @@ impl ControlSummary {
             self.overshoot_quanta.median,
             self.overshoot_quanta.max,
             self.limit_cycle_pulses,
+            self.fine_steps,
             self.hold_pulses,
             self.unsettled,
             self.fallbacks
