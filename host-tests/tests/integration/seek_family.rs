@@ -10,7 +10,8 @@
 //! **Each plant's servo designed from its own exact model, identification frozen**
 //! (`--prior exact --frozen`: the law alone). Seeds 1 / 7 (2): access / bound median 1.00 / 1.00
 //! (1.00), p95 1.25 / 1.25 (1.25), ≥ 200 tracks 1.00; unsettled seeks 0 / 0 (0; seeds 3 / 4:
-//! 0 / 3, the latter one plant), pulses 0, safe stops 0 — since the coasting damping no longer
+//! 0 / 3, the latter one plant; 0 / 4 on two plants with the two-sample flicker), pulses 0,
+//! safe stops 0 — since the coasting damping no longer
 //! takes a still sled's flicker for motion (`control::scheduled::rest`, "A resting sled's
 //! flicker"); before it 1 / 0 (0; seed 4: 1 and 3 pulses): seed 1's plant 197, a heavy, almost
 //! frictionless sled resting a cell off, was kicked away from the target by such a flicker and
@@ -128,7 +129,10 @@ fn seeks_land_on_every_plant_with_its_exact_model() {
 /// (`control-family --passes seek --calibrate`). Measured 2026-11-27 with the learner, seeds
 /// 1 / 7 (2): access / bound median 1.04 / 1.04 (1.04), p95 1.60 / 1.57 (1.60), ≥ 200 tracks
 /// 1.05 / 1.04 (1.05), clean 99.5 / 100.0 % (99.5 %), unsettled 1 / 0 (1), pulses 0 / 0 (0),
-/// safe stops 0 / 0 (0); seeds 3–6: clean 100 %, p95 ≤ 1.67. Before the learner (the
+/// safe stops 0 / 0 (0); seeds 3–6: clean 100 %, p95 ≤ 1.67. With the two-sample flicker
+/// (`control::scheduled::rest`, 2026-11-28): median 1.05 / 1.04 (1.04), p95 1.60 / 1.50 (1.60),
+/// clean 100.0 / 99.5 % (99.5 %), unsettled 0 / 1 (3), pulses 0 / 0 (0); seeds 3 / 4: clean
+/// 100 / 99.5 %. Before the learner (the
 /// calibrated model held at p 0.15): median 1.09 / 1.08 (1.07), p95 2.00 / 1.75 (1.75), ≥ 200
 /// tracks 1.07 / 1.06 (1.06), clean 100.0 / 100.0 % (99.5 %), unsettled 0 / 0 (2) — against the on-line servo without calibration's 1.25 / 1.20 median, 3.50 /
 /// 3.50 p95, 90.0 / 91.5 % clean and 3 / 2 stops (`seeks_on_the_plant_family`). Over seeds 1–7
@@ -184,7 +188,8 @@ fn calibrated_seeks_on_the_plant_family() {
         // seeds 2–6 before it: 58 / 25 / 39 / 39 / 26) since the seeks' learner lands at p 0
         // (39 / 35 / 30 at p 0.15 before it, 44 / 35 / 29 with the learner at p 0.15 — whose
         // fast corner sled then kept a p95 of 2.5 —, 3 / 12 / 15 before the off-track rule),
-        // asserted at the seeds' largest. Trips on a watch that reports seeks while they move or
+        // asserted at the seeds' largest (57 / 54, seed 2: 80, with the two-sample flicker).
+        // Trips on a watch that reports seeks while they move or
         // hold (thousands), or that hunts at three pulses (84 / 76; counted either way, a fine
         // step's chatter too: 98 / 87).
         assert_eq!(s.unsettled_reported, s.unsettled, "seed {seed}: {s:?}");
@@ -203,9 +208,13 @@ fn calibrated_seeks_on_the_plant_family() {
 /// (seeds 2–4: 2 / 5 / 3; 1 / 3 before the ring rule), every one by drive pulses while the
 /// reading stays within ±1 quantum: heavy (mass 6–12×), noisy (0.15–0.2 quantum) sleds whose
 /// readings flicker at the cell's centre and whose coasting damping kicks past the true
-/// breakaway but under the hunting level. That target is not met; asserted: no unreported
-/// unsettled seek, and at most 3 such plants per family (5 / 4 before the hunting rule, 40 /
-/// 36 before the seek error). Trips on a watch without the ring rule (seed 7) or without the
+/// breakaway but under the hunting level. With the two-sample flicker
+/// (`control::scheduled::rest`, "A resting sled's flicker"; 2026-11-28) those kicks are gone on
+/// seeds 1 / 7: 0 / 0 plants failing unflagged (seeds 2–4: 2 / 0 / 0; main before it 1 / 0, 1 /
+/// 2 / 1), pulses 32 / 10 (102 / 11). That target is still not met on seed 2; asserted: no
+/// unreported unsettled seek, and at most 1 such plant per family (one plant of spread; 3
+/// before the two-sample flicker, 5 / 4 before the hunting rule, 40 / 36 before the seek
+/// error). Trips on a watch without the ring rule (seed 7) or without the
 /// hunting rule (seed 1), or on ranges that are not the wider ones (the family's own has no
 /// stop; the wider one 13 / 15: asserted ≥ 5).
 #[test]
@@ -227,7 +236,7 @@ fn the_wider_family_fails_flagged() {
                 b.unsettled_reported
             );
         }
-        assert!(s.unflagged_failures <= 3, "seed {seed}: {s:?}");
+        assert!(s.unflagged_failures <= 1, "seed {seed}: {s:?}");
         assert!(s.safe_stops >= 5, "seed {seed}: {s:?}");
     }
 }
