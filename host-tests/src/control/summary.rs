@@ -133,6 +133,15 @@ impl ControlSummary {
     }
 }
 
+/// Per sample of a controller's trace: the sample is part of a fine step (`FINE_STEP`), for
+/// `twin::analysis`'s count of fine steps apart from limit-cycle pulses.
+pub fn fine_step_marks(trace: &[(Region, ControlFlags)]) -> Vec<bool> {
+    trace
+        .iter()
+        .map(|(_, f)| f.contains(ControlFlags::FINE_STEP))
+        .collect()
+}
+
 pub(crate) fn summarize(
     twin: &Twin,
     trace: &[(Region, ControlFlags)],
@@ -143,11 +152,7 @@ pub(crate) fn summarize(
     let plant = twin.params().plant.clone();
     let ts_ms = plant.ts_s * 1e3;
     let breakaway_v = plant.static_n / plant.force_per_volt_n_per_v;
-    let fine_step: Vec<bool> = trace
-        .iter()
-        .map(|(_, f)| f.contains(ControlFlags::FINE_STEP))
-        .collect();
-    let stats = twin.seek_stats_marked(&fine_step);
+    let stats = twin.seek_stats_marked(&fine_step_marks(trace));
     let samples = twin.samples();
     let (mut settle, mut after, mut bound, mut over) = (vec![], vec![], vec![], vec![]);
     let mut unsettled = 0;

@@ -3,11 +3,12 @@
 //! of `sledid seek`'s `summary.json`.
 
 use serde::Serialize;
-use sledid::control::{ControlFlags, ScheduledDesign};
+use sledid::control::ScheduledDesign;
 use sledid::servo::{CalibrationDesign, Identification, ServoOptions};
 
 use super::access::{Quantiles, access_samples, min_dwell_samples};
 use crate::control::run::{CalibrationBrief, ControlRun, run_servo_with_faults};
+use crate::control::summary::fine_step_marks;
 use crate::twin::{
     PlantParams, ReferenceProfile, SeekDistribution, Twin, TwinParams, min_time_seek,
 };
@@ -424,12 +425,7 @@ pub fn run_seeks_with_faults(
 /// The rows of every ended seek of `run`, with the servo's seek errors.
 pub fn rows(run: &ControlRun) -> Vec<SeekRow> {
     let errors = run.seek_error_per_seek();
-    let fine_step: Vec<bool> = run
-        .trace
-        .iter()
-        .map(|(_, f)| f.contains(ControlFlags::FINE_STEP))
-        .collect();
-    let mut rows = rows_marked(&run.twin, &fine_step);
+    let mut rows = rows_marked(&run.twin, &fine_step_marks(&run.trace));
     for row in &mut rows {
         row.seek_error = errors.get(row.index).copied().unwrap_or(false);
     }
