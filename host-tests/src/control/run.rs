@@ -9,7 +9,7 @@ use sledid::servo::{
 };
 
 use super::design::{identifier_design, scheduled_design_for};
-use super::summary::{ControlSummary, ControllerKind, summarize};
+use super::summary::{ControlSummary, ControllerKind, fine_step_marks, summarize};
 use crate::reference::control::{FixedPid, baseline_design, position_from_quanta};
 use crate::twin::{PlantParams, SledController, Twin, TwinParams};
 
@@ -265,11 +265,8 @@ impl ControlRun {
     /// controller started in it: samples flagged `FINE_STEP` whose previous sample was not (0
     /// for the baseline, which has no trace).
     pub fn fine_steps_per_seek(&self) -> Vec<usize> {
-        let on = |k: usize| {
-            self.trace
-                .get(k)
-                .is_some_and(|(_, f)| f.contains(ControlFlags::FINE_STEP))
-        };
+        let marks = fine_step_marks(&self.trace);
+        let on = |k: usize| marks.get(k).copied().unwrap_or(false);
         self.twin
             .seeks()
             .iter()

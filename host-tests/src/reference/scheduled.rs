@@ -399,18 +399,17 @@ impl ScheduledF64 {
                 self.integral = 0.0;
                 (g.kp_settle * e - g.kd_settle * self.v_hat, true, false)
             }
-            LawMode::CoastFlicker => {
-                self.integral = 0.0;
-                self.last_v = self.forward(0.0);
-                self.last_u = 0.0;
-                return 0.0;
-            }
-            LawMode::Coast => {
+            LawMode::Coast | LawMode::CoastFlicker => {
                 self.integral = 0.0;
                 // Damping past a dead zone of l/2 quanta per sample (half what one flicker of
-                // the reading moves v̂ by).
+                // the reading moves v̂ by); a still sled's flicker is not motion.
                 let w = g.obs_l / 2.0;
-                let v = -g.kd_settle * (self.v_hat - self.v_hat.clamp(-w, w));
+                let moving = if mode == LawMode::CoastFlicker {
+                    0.0
+                } else {
+                    self.v_hat - self.v_hat.clamp(-w, w)
+                };
+                let v = -g.kd_settle * moving;
                 let u = v.clamp(-u_max, u_max);
                 self.last_v = self.forward(u);
                 self.last_u = u;

@@ -22,15 +22,16 @@
 //! Every pulse of an unmarked recording (the baseline's) is a limit-cycle pulse.
 
 use serde::{Deserialize, Serialize};
+use sledid::control::scheduled::rest::STILL_SAMPLES;
 
 use super::Twin;
 
 /// Fraction of each dwell, at its end, in which the limit cycle is measured.
 pub const LIMIT_CYCLE_WINDOW_FRACTION: f64 = 0.5;
 
-/// Readings in the target cell in a row, without a pulse, by which a fine step has landed (the
-/// scheduled controller's still count, `sledid::control::scheduled::rest::STILL_SAMPLES`).
-pub const FINE_STEP_LANDED_SAMPLES: usize = 8;
+/// Readings in the target cell in a row, without a pulse, by which a fine step has landed: the
+/// scheduled controller's still count ([`STILL_SAMPLES`]).
+pub const FINE_STEP_LANDED_SAMPLES: usize = STILL_SAMPLES as usize;
 
 /// Settling and limit-cycle statistics of one seek.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -35,9 +35,8 @@
 //! (with a kick's return and the two-sample flicker, below) the plants whose true holding error
 //! exceeds one quantum fell from 193–198 to 2–9 per family, the largest from 1.49 to 1.40
 //! quanta, the clean plants' mean from 99.14 to 99.43 % (BENCHMARKS.md, "The holding error ≤ 1
-//! quantum"). The time-optimal seeks
-//! keep their rule: under this one their families' pulses rose from 1 / 0 to 5 / 8 (seeds 1 / 7)
-//! and the nominal sled's median access from 3.4 to 3.6 ms.
+//! quantum"). The time-optimal seeks keep their rule: under this one their families' pulses rose
+//! from 1 / 0 to 5 / 8 (seeds 1 / 7) and the nominal sled's median access from 3.4 to 3.6 ms.
 //!
 //! A fine step is the settle law's integrator ramping the drive until the sled breaks away. On a
 //! sticking sled that drive is well above the Coulomb level (stiction 2–3×), and driving on until
@@ -265,10 +264,6 @@ pub struct StillReading {
 
 /// `marks`: the last reading was the first one a quantum off the kept one.
 const OFF: u8 = 1;
-/// `marks`: the last two readings were a quantum off the kept one, the same way.
-const OFF2: u8 = 1 << 5;
-/// `marks`: the off readings are above the kept one.
-const OFF_UP: u8 = 1 << 6;
 /// `marks`: a drive acted since the kept reading was first read.
 const KICKED: u8 = 1 << 1;
 /// `marks`: the reading kept before it was read STILL_SAMPLES / 2 samples or more without drive.
@@ -277,6 +272,10 @@ const SLOW: u8 = 1 << 2;
 const BACK_UP: u8 = 1 << 3;
 /// `marks`: the reading kept before it is one quantum below it.
 const BACK_DOWN: u8 = 1 << 4;
+/// `marks`: the last two readings were a quantum off the kept one, the same way.
+const OFF2: u8 = 1 << 5;
+/// `marks`: the off readings are above the kept one.
+const OFF_UP: u8 = 1 << 6;
 
 impl StillReading {
     /// Nothing kept yet.
