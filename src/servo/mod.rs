@@ -276,6 +276,12 @@ pub struct ServoState<C: Controller, I: Identifier> {
     safety: SafetyState,
     /// The controller was in its fallback on the last sample.
     in_fallback: bool,
+    /// The fallbacks' recovery (`safety`, "Before the fallbacks' stop") asks for a calibration
+    /// from the next sample.
+    recalibrate: bool,
+    /// The fallbacks' recovery of a servo without calibration: the identifier no longer adapts
+    /// and no redesign is posted; the controller runs its prior's design.
+    suspended: bool,
     /// Power-on calibration's progress (finished from the start without one).
     calibration: CalibrationState,
     /// What calibration found, once adopted.
@@ -310,15 +316,20 @@ impl ServoFlags {
     /// `calibration::watch`): what a drive reports to its host as a seek error. Raised every such
     /// sample, until it settles (again) or a new command arrives.
     pub const SEEK_ERROR: Self = Self(1 << 5);
+    /// The servo, without calibration, recovered from the fallbacks' stop by keeping its prior's
+    /// design: the identifier no longer adapts (`safety`, "Before the fallbacks' stop"). Raised
+    /// every sample from then on.
+    pub const IDENTIFICATION_SUSPENDED: Self = Self(1 << 6);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 6] = [
+    pub const NAMES: [(Self, &'static str); 7] = [
         (Self::REDESIGN_POSTED, "redesign_posted"),
         (Self::REDESIGN_ADOPTED, "redesign_adopted"),
         (Self::HANDOVER_MISSED, "handover_missed"),
         (Self::SAFE_STOP, "safe_stop"),
         (Self::CALIBRATING, "calibrating"),
         (Self::SEEK_ERROR, "seek_error"),
+        (Self::IDENTIFICATION_SUSPENDED, "identification_suspended"),
     ];
 }
 
@@ -505,6 +516,8 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             fitting: false,
             safety: SafetyState::new(),
             in_fallback: false,
+            recalibrate: false,
+            suspended: false,
             calibration: self.fresh_calibration(),
             calibrated: None,
             calibrations: 0,
@@ -698,12 +711,12 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             HandoverEvent::Missed => servo.insert(ServoFlags::HANDOVER_MISSED),
         }
         if let Some(cal) = &self.calibration
-            && state.watch.step(r.raw(), y.raw())
+            && (state.watch.step(r.raw(), y.raw()) || core::mem::take(&mut state.recalibrate))
         {
-            // The sled no longer follows the calibrated model: calibrate again from here. A
-            // redesign in flight is dropped: its due sample would pass during the experiment,
-            // where the hand-over is not stepped, and it would block every later redesign (its
-            // late delivery is refused).
+            // The sled no longer follows the calibrated model (or the fallbacks' recovery):
+            // calibrate again from here. A redesign in flight is dropped: its due sample would
+            // pass during the experiment, where the hand-over is not stepped, and it would block
+            // every later redesign (its late delivery is refused).
             state.calibration = CalibrationState::new();
             state.handover = Handover::new();
             return self.calibration_step(cal, state, measured, u_applied);
@@ -712,13 +725,17 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         let input = ControlInput { r, y, report };
         let mut out = self.controller.step(&mut state.controller, &input);
         let falling_back = out.flags.contains(ControlFlags::FALLBACK);
+        let entered = falling_back && !state.in_fallback;
+        // The entry that would stop the loop for its fallbacks: first a recovery (calibrate
+        // again; without calibration, identification suspended on the prior's design).
+        let recover = entered && self.safety.fallback_recovery(&mut state.safety);
         let stop = self.safety.check(
             &mut state.safety,
             r,
             measured,
             out.u,
             out.flags.contains(ControlFlags::OUTPUT_SATURATED),
-            falling_back && !state.in_fallback,
+            entered && !recover,
         );
         state.in_fallback = falling_back;
         if stop.is_some() {
@@ -732,8 +749,10 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         let gate = u64::from(self.settings.min_speed_i16f16);
         let moving = y.raw().abs_diff(state.y1) >= gate && state.y1.abs_diff(state.y2) >= gate;
         (state.y2, state.y1) = (state.y1, y.raw());
-        self.identifier
-            .set_adapting(&mut state.identifier, moving && self.settings.adapt);
+        self.identifier.set_adapting(
+            &mut state.identifier,
+            moving && self.settings.adapt && !state.suspended,
+        );
         let identified = match measured {
             Some(y) => self
                 .identifier
@@ -741,7 +760,20 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             None => self.identifier.reject(&mut state.identifier),
         };
         state.report = I::report(&identified);
-        if state.handover.is_free() {
+        if recover {
+            if self.calibration.is_some() {
+                state.recalibrate = true;
+            } else {
+                // The prior's design and θ again, a redesign in flight dropped, nothing learnt
+                // from here (a sled whose identified models keep being distrusted).
+                state.suspended = true;
+                state.controller = self.controller.new_state();
+                state.identifier = self.identifier.new_state();
+                state.handover = Handover::new();
+            }
+        }
+        servo.set_if(ServoFlags::IDENTIFICATION_SUSPENDED, state.suspended);
+        if state.handover.is_free() && !state.suspended {
             let theta = self.identifier.theta(&state.identifier);
             if let Some(job) = self.controller.redesign_job(&mut state.controller, theta) {
                 state.handover.post(
@@ -974,6 +1006,8 @@ where
             fitting: self.fitting,
             safety: self.safety,
             in_fallback: self.in_fallback,
+            recalibrate: self.recalibrate,
+            suspended: self.suspended,
             calibration: self.calibration,
             calibrated: self.calibrated,
             calibrations: self.calibrations,

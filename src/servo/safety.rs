@@ -22,6 +22,17 @@
 //!           above its breakaway)
 //! fallbacks more than M entries into the controller's fallback within W samples
 //! ```
+//! # Before the fallbacks' stop: one recovery per window
+//! The entry that would make the fallbacks' stop is the servo's to recover from first
+//! ([`SafetyConfig::fallback_recovery`]): a loop that keeps entering its fallback is switching
+//! between an identified design and its prior's, not driving a sled off its travel (the other
+//! triggers watch that). The servo then calibrates again, or without calibration stops
+//! identifying and keeps its prior's design (`super::ServoFlags::IDENTIFICATION_SUSPENDED`); the
+//! remembered entries are forgotten. One recovery per W samples: M + 1 entries within W of a
+//! recovery still stop — the last resort.
+//! ```text
+//! recover   an entry now would stop, and no recovery in the last W samples
+//! ```
 //! A reversed sensor or a reversed drive is a runaway (the sled moves away from the target with the
 //! drive toward it); a seek commanded past the travel stops at the soft end stop; a loop made
 //! unstable by a mass step runs away or reaches the travel; a sensor stuck while the drive is at
@@ -242,6 +253,30 @@ impl SafetyConfig {
         Ok(())
     }
 
+    /// Whether the controller's fallback entered this sample (before [`Self::check`], on the
+    /// same sample) is the servo's to recover from instead of the fallbacks' stop: one more entry
+    /// would stop, and no recovery in the last W samples. Then the recovery is recorded and the
+    /// remembered entries are forgotten: the caller passes `fallback_entered = false` to
+    /// [`Self::check`] and recovers.
+    pub fn fallback_recovery(&self, state: &mut SafetyState) -> bool {
+        let k = state.k;
+        let limit = usize::from(self.fallback_limit);
+        // After this entry's shift the entry now at slot limit − 1 would be the oldest kept.
+        let stopping = matches!(
+            state.fallbacks.get(limit.saturating_sub(1)),
+            Some(Some(oldest)) if k.wrapping_sub(*oldest) < self.fallback_window
+        );
+        let allowed = state
+            .recovered_at
+            .is_none_or(|at| k.wrapping_sub(at) >= self.fallback_window);
+        if state.latched.is_some() || !stopping || !allowed {
+            return false;
+        }
+        state.recovered_at = Some(k);
+        state.fallbacks = [None; FALLBACK_LIMIT_MAX + 1];
+        true
+    }
+
     /// One sample's check, after the controller's step: the reading `y` (`None`: lost), its
     /// target `r`, the drive `u`, whether the drive is at its limit, whether the controller
     /// entered its fallback this sample. Returns the reason when the servo must stop; the state
@@ -392,6 +427,8 @@ pub struct SafetyState {
     runaway_from: i32,
     runaway_half: i32,
     fallbacks: [Option<u32>; FALLBACK_LIMIT_MAX + 1],
+    /// The sample of the last recovery from the fallbacks' stop ([`SafetyConfig::fallback_recovery`]).
+    recovered_at: Option<u32>,
     latched: Option<StopReason>,
     /// u_stall measured on this sled (power-on calibration), I16F16 raw; `None`: the
     /// configuration's.
@@ -416,6 +453,7 @@ impl SafetyState {
             runaway_from: 0,
             runaway_half: 0,
             fallbacks: [None; FALLBACK_LIMIT_MAX + 1],
+            recovered_at: None,
             latched: None,
             stall_drive: None,
         }
@@ -584,6 +622,58 @@ mod tests {
         assert_eq!(
             c.check(&mut s, p(0), Some(p(0)), full, false, true),
             Some(StopReason::Fallbacks)
+        );
+    }
+
+    /// The fallbacks' recovery: granted on the entry that would stop (the M + 1-th within W),
+    /// never before it, which then does not count and the earlier entries are forgotten; a second
+    /// run of M + 1 entries within W of the recovery stops; after W the next one recovers again.
+    /// Trips on a recovery granted early, one that keeps the remembered entries, a second
+    /// recovery within W (the stop never reached), or none granted after W.
+    #[test]
+    fn the_fallbacks_stop_is_recovered_from_once_per_window() {
+        let c = cfg();
+        let mut s = SafetyState::new();
+        // One sample at rest without drive (nothing else may stop), perhaps a fallback entry; the
+        // servo's order: the recovery, then the check.
+        let sample = |s: &mut SafetyState, entered: bool| {
+            let recover = entered && c.fallback_recovery(s);
+            let u = SignalI16F16::ZERO;
+            (
+                recover,
+                c.check(s, p(0), Some(p(0)), u, false, entered && !recover),
+            )
+        };
+        for k in 0..4 {
+            assert_eq!(sample(&mut s, true), (false, None), "entry {k}");
+        }
+        // The fifth entry within W would stop: recovered instead.
+        assert_eq!(sample(&mut s, true), (true, None));
+        // The remembered entries are gone: four more pass, the fifth within W stops.
+        for k in 0..4 {
+            assert_eq!(
+                sample(&mut s, true),
+                (false, None),
+                "entry {k} after the recovery"
+            );
+        }
+        assert_eq!(sample(&mut s, true), (false, Some(StopReason::Fallbacks)));
+        // After W samples without entries, a new run recovers again.
+        let mut s = SafetyState::new();
+        for _ in 0..4 {
+            sample(&mut s, true);
+        }
+        assert!(sample(&mut s, true).0);
+        for _ in 0..8192 {
+            assert_eq!(sample(&mut s, false), (false, None));
+        }
+        for _ in 0..4 {
+            assert_eq!(sample(&mut s, true), (false, None));
+        }
+        assert_eq!(
+            sample(&mut s, true),
+            (true, None),
+            "a window after the first recovery"
         );
     }
 

@@ -100,6 +100,8 @@ pub struct RunBrief {
     pub redesigns_applied: usize,
     /// The safety layer stopped the servo.
     pub safe_stop: bool,
+    /// The servo suspended identification (the fallbacks' recovery: its prior's design kept).
+    pub identification_suspended: bool,
 }
 
 impl RunBrief {
@@ -115,6 +117,7 @@ impl RunBrief {
             fallbacks: s.fallbacks,
             redesigns_applied: s.redesigns.applied,
             safe_stop: s.safe_stop.is_some(),
+            identification_suspended: s.identification_suspended_at.is_some(),
         }
     }
 
@@ -203,6 +206,9 @@ pub struct FamilyStats {
     pub safe_stops: usize,
     /// Of those, runs of the servo itself (identified).
     pub safe_stops_servo: usize,
+    /// Runs of the servo (identified) that suspended identification instead of the fallbacks'
+    /// stop, and of the linear-only variant.
+    pub suspended: [usize; 2],
     /// Samples the servo variants stepped in all.
     pub servo_samples: u64,
 }
@@ -339,6 +345,16 @@ pub fn stats(plants: &[PlantResult]) -> FamilyStats {
             })
             .sum(),
         safe_stops_servo: plants.iter().filter(|p| p.identified.safe_stop).count(),
+        suspended: [
+            plants
+                .iter()
+                .filter(|p| p.identified.identification_suspended)
+                .count(),
+            plants
+                .iter()
+                .filter(|p| p.linear_only.identification_suspended)
+                .count(),
+        ],
         servo_samples: plants.iter().map(|p| 3 * p.samples).sum(),
     }
 }
@@ -383,7 +399,8 @@ pub fn stats_table(s: &FamilyStats) -> String {
          | prior > {:.0} % off: plants, ≥ 20 % faster than frozen | {}, {:.1} % |\n\
          | largest holding error in Hold: read / true | {:.0} / {:.2} quanta |\n\
          | friction ≥ {HIGH_FRICTION}× prior: plants, settling identified / linear-only (geo. mean), events identified / linear-only | {}, {:.3}, {} / {} |\n\
-         | safe stops over {} servo samples (all variants / the servo) | {} / {} |\n",
+         | safe stops over {} servo samples (all variants / the servo) | {} / {} |\n\
+         | identification suspended (the fallbacks' recovery): the servo / linear-only | {} / {} |\n",
         s.plants,
         100.0 * s.clean,
         100.0 * s.clean_frozen,
@@ -401,6 +418,8 @@ pub fn stats_table(s: &FamilyStats) -> String {
         s.high_friction_events_linear,
         s.servo_samples,
         s.safe_stops,
-        s.safe_stops_servo
+        s.safe_stops_servo,
+        s.suspended[0],
+        s.suspended[1]
     )
 }

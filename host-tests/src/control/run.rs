@@ -30,6 +30,9 @@ pub struct ScheduledLoop {
     pub redesigns: Vec<Redesign>,
     /// The first safe stop: sample index and reason.
     pub first_stop: Option<(usize, StopReason)>,
+    /// The sample the servo suspended identification at (the fallbacks' recovery without
+    /// calibration, [`ServoFlags::IDENTIFICATION_SUSPENDED`]).
+    pub suspended_at: Option<usize>,
 }
 
 impl ScheduledLoop {
@@ -80,6 +83,7 @@ impl ScheduledLoop {
             seek_errors: Vec::new(),
             redesigns: Vec::new(),
             first_stop: None,
+            suspended_at: None,
         })
     }
 
@@ -146,6 +150,9 @@ impl super::inject::ReadingController for ScheduledLoop {
         }
         if let (None, Some(reason)) = (self.first_stop, out.stop) {
             self.first_stop = Some((self.trace.len(), reason));
+        }
+        if self.suspended_at.is_none() && out.servo.contains(ServoFlags::IDENTIFICATION_SUSPENDED) {
+            self.suspended_at = Some(self.trace.len());
         }
         self.trace.push((out.region, out.control));
         self.seek_errors
@@ -254,6 +261,8 @@ pub struct ControlRun {
     pub redesigns: Vec<Redesign>,
     /// The servo's first safe stop (sample, reason), if any.
     pub first_stop: Option<(usize, StopReason)>,
+    /// The sample the servo suspended identification at, if it did.
+    pub suspended_at: Option<usize>,
     /// Power-on calibration, when the servo calibrated.
     pub calibration: Option<CalibrationOutcome>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
@@ -400,6 +409,7 @@ pub fn run_servo_with_faults(
     let p = &params.plant;
     let mut calibrated = None;
     let mut calibrations = 0;
+    let mut suspended_at = None;
     let (trace, seek_errors, redesigns, first_stop, kind) = match design {
         None => {
             let design = baseline_design(&params.controller, p.ts_s, p.u_max_v);
@@ -426,6 +436,7 @@ pub fn run_servo_with_faults(
             twin.set_controller_label("scheduled");
             super::inject::run_with_faults(&mut twin, &mut c, faults);
             calibrations = c.state.calibrations();
+            suspended_at = c.suspended_at;
             (
                 c.trace,
                 c.seek_errors,
@@ -440,6 +451,7 @@ pub fn run_servo_with_faults(
         let y = twin.samples().get(k).map_or(0, |s| s.y_counts);
         format!("{} at sample {k}, reading {y} quanta", reason.name())
     });
+    summary.identification_suspended_at = suspended_at;
     Ok(ControlRun {
         twin,
         trace,
@@ -447,6 +459,7 @@ pub fn run_servo_with_faults(
         summary,
         redesigns,
         first_stop,
+        suspended_at,
         calibration: calibrated,
         calibrations,
     })

@@ -106,6 +106,9 @@ pub struct ControlSummary {
     pub u_peak_v: f64,
     /// The servo's safe stop, if it stopped: reason, sample, reading.
     pub safe_stop: Option<String>,
+    /// The sample the servo suspended identification at, if it did (the fallbacks' recovery
+    /// without calibration: its prior's design from there on).
+    pub identification_suspended_at: Option<usize>,
 }
 
 impl ControlSummary {
@@ -236,5 +239,6 @@ pub(crate) fn summarize(
         redesigns: counts,
         u_peak_v: samples.iter().fold(0.0, |m: f64, s| m.max(s.u_v.abs())),
         safe_stop: None,
+        identification_suspended_at: None,
     }
 }
