@@ -285,3 +285,185 @@ fn a_mass_step_the_loop_cannot_brake_stops() {
     assert_eq!(o.stop, None, "a lighter sled is adapted to, not stopped");
     assert!(o.x_max < limit && o.x_min > -limit && o.at_rest, "{o:?}");
 }
+
+/// The servo's controller with its fallback entered on command (the test sets `forced` before a
+/// sample): everything else is the scheduled controller's.
+struct ForcedFallback {
+    inner: sledid::control::ScheduledConfig,
+    forced: std::cell::Cell<bool>,
+}
+
+impl sledid::control::Controller for ForcedFallback {
+    type State = sledid::control::ScheduledState;
+    type Job = <sledid::control::ScheduledConfig as sledid::control::Controller>::Job;
+    type Design = <sledid::control::ScheduledConfig as sledid::control::Controller>::Design;
+
+    fn new_state(&self) -> Self::State {
+        self.inner.new_state()
+    }
+    fn step(
+        &self,
+        state: &mut Self::State,
+        input: &sledid::control::ControlInput,
+    ) -> sledid::control::ControlOutput {
+        let mut out = self.inner.step(state, input);
+        if self.forced.get() {
+            out.flags.insert(sledid::control::ControlFlags::FALLBACK);
+        }
+        out
+    }
+    fn redesign_job(
+        &self,
+        state: &mut Self::State,
+        theta: &[sledid::ParamI12F20],
+    ) -> Option<Self::Job> {
+        self.inner.redesign_job(state, theta)
+    }
+    fn redesign(&self, job: &Self::Job) -> Self::Design {
+        self.inner.redesign(job)
+    }
+    fn adopt(&self, state: &mut Self::State, design: &Self::Design) {
+        self.inner.adopt(state, design);
+    }
+    fn place_job(&self, theta: &[sledid::ParamI12F20]) -> Self::Job {
+        self.inner.place_job(theta)
+    }
+    fn placed(design: &Self::Design) -> bool {
+        sledid::control::ScheduledConfig::placed(design)
+    }
+}
+
+/// What a run of forced fallbacks showed: per forced entry (1-based), the servo's flags on that
+/// sample and on the next, and the stop; the identifier's θ at the end.
+struct Entries {
+    flags: Vec<(ServoFlags, ServoFlags, Option<StopReason>)>,
+    theta_end: Vec<f64>,
+    theta_prior: Vec<f64>,
+    calibrations: u32,
+}
+
+/// The nominal sled seeking on seed 3 for 3,000 samples (after power-on calibration when
+/// `calibrate`), then 10 entries into the fallback: 10 samples forced, 10 free, ten times.
+fn forced_entries(calibrate: bool) -> Entries {
+    use sledid::servo::{ServoConfig, ServoOptions};
+    let mut params = TwinParams::default();
+    params.reference.seek_count = 20;
+    let design = design_from_prior(&params, &PlantParams::default()).unwrap();
+    let built = ScheduledLoop::with_safety(
+        &design,
+        &identifier_design(&design),
+        ServoOptions::default(),
+        twin_safety(&params, &design),
+    )
+    .unwrap()
+    .with_calibration(calibrate.then(sledid::servo::CalibrationDesign::default))
+    .unwrap()
+    .config;
+    let controller = ForcedFallback {
+        inner: *built.controller(),
+        forced: std::cell::Cell::new(false),
+    };
+    let servo = ServoConfig::new(
+        controller,
+        *built.identifier(),
+        ServoOptions::default().build().unwrap(),
+        *built.safety(),
+    )
+    .with_calibration(built.calibration().copied());
+    let mut state = servo.new_state();
+    let fs = design.baseline.u_full_scale_v;
+    let mut twin = Twin::new(params, 3).unwrap();
+    let mut k = 0usize;
+    // After the first 3,000 samples: (running samples since, the servo's flags, its stop) per
+    // sample. The phase counts only samples where the controller runs (not calibrating).
+    let mut outs: Vec<(usize, ServoFlags, Option<StopReason>)> = Vec::new();
+    let mut phase: Option<usize> = None;
+    while phase.is_none_or(|p| p < 200) {
+        let mut controller = |r: f64, y: f64| {
+            let running = !state.calibration().is_running();
+            if running && phase.is_none() && k >= 3_000 {
+                phase = Some(0);
+            }
+            let p = phase.filter(|_| running);
+            servo
+                .controller()
+                .forced
+                .set(p.is_some_and(|p| p % 20 < 10));
+            let out = servo.step(&mut state, position_from_quanta(r), position_from_quanta(y));
+            servo.run_background(&mut state);
+            if let Some(at) = phase {
+                outs.push((at, out.servo, out.stop));
+                if running {
+                    phase = Some(at + 1);
+                }
+            }
+            k += 1;
+            out.u.to_f64() * fs
+        };
+        assert!(twin.step(&mut controller).is_some(), "the schedule ran out");
+    }
+    // Entry i: the first sample of running phase 20·i, and the sample after it.
+    let flags = (0..10)
+        .map(|i| {
+            let at = outs.iter().position(|o| o.0 == 20 * i).unwrap();
+            (outs[at].1, outs[at + 1].1, outs[at].2)
+        })
+        .collect();
+    let theta = |t: &[sledid::ParamI12F20]| t.iter().map(|p| p.to_f64()).collect::<Vec<_>>();
+    Entries {
+        flags,
+        theta_end: theta(state.identifier().model().theta()),
+        theta_prior: theta(servo.identifier().new_state().model().theta()),
+        calibrations: state.calibrations(),
+    }
+}
+
+/// Issue 22, item 5: the entry that would stop the servo for its fallbacks (the fifth within
+/// 8,192 samples) is recovered from once per window — without calibration by suspending
+/// identification on the prior's design, with it by calibrating again — and the next five
+/// entries within the window stop it (the last resort). Trips on a recovery removed (a stop on
+/// the fifth entry), granted twice (no stop on the tenth), a suspension that keeps what was
+/// learnt or keeps adapting (θ ≠ the prior's at the end), a recovery that does not calibrate
+/// again, or entries the recovery forgot counted again.
+#[test]
+fn repeated_fallbacks_are_recovered_from_before_the_stop() {
+    for calibrate in [false, true] {
+        let e = forced_entries(calibrate);
+        let what = if calibrate {
+            "calibrated"
+        } else {
+            "without calibration"
+        };
+        for (i, (flags, _, stop)) in e.flags.iter().enumerate().take(9) {
+            assert_eq!(*stop, None, "{what}: entry {} stopped", i + 1);
+            assert!(
+                !flags.contains(ServoFlags::SAFE_STOP),
+                "{what}: entry {}",
+                i + 1
+            );
+        }
+        assert_eq!(
+            e.flags[9].2,
+            Some(StopReason::Fallbacks),
+            "{what}: the tenth entry, five after the recovery"
+        );
+        let suspended = |i: usize| e.flags[i].0.contains(ServoFlags::IDENTIFICATION_SUSPENDED);
+        if calibrate {
+            assert!(!suspended(4) && !suspended(8), "{what}: suspended");
+            assert!(
+                e.flags[4].1.contains(ServoFlags::CALIBRATING),
+                "{what}: no calibration after the fifth entry"
+            );
+            assert!(!e.flags[3].1.contains(ServoFlags::CALIBRATING));
+            assert_eq!(e.calibrations, 2, "{what}: power-on's and the recovery's");
+        } else {
+            assert!(!suspended(3), "{what}: suspended before the fifth entry");
+            assert!(
+                suspended(4) && suspended(8),
+                "{what}: not suspended from the fifth on"
+            );
+            assert_eq!(e.theta_end, e.theta_prior, "{what}: θ is not the prior's");
+            assert_eq!(e.calibrations, 0);
+        }
+    }
+}
