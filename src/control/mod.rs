@@ -101,4 +101,9 @@ pub trait Controller {
 
     /// Whether a finished redesign placed gains (a refused model is not adopted as calibrated).
     fn placed(design: &Self::Design) -> bool;
+
+    /// The loop was interrupted (a re-calibration that ended without a new model): the signal
+    /// history is forgotten — the next sample primes the law as the first one did — and the
+    /// gains in use are kept. The default does nothing (a law without history).
+    fn restart(&self, _state: &mut Self::State) {}
 }

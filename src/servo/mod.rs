@@ -288,6 +288,9 @@ pub struct ServoState<C: Controller, I: Identifier> {
     calibrated: Option<CalibratedModel>,
     /// Calibrations adopted since power-on.
     calibrations: u32,
+    /// Re-calibrations that ran out of samples after every push had ended: the previous model
+    /// kept.
+    inconclusive: u16,
     /// When to calibrate again.
     watch: calibration::CalibrationWatch,
 }
@@ -521,6 +524,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             calibration: self.fresh_calibration(),
             calibrated: None,
             calibrations: 0,
+            inconclusive: 0,
             watch: calibration::CalibrationWatch::default(),
         }
     }
@@ -832,7 +836,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             }
             HandoverEvent::Adopt(&Answer::Fit(Calibrated::Refused(r))) => {
                 state.calibration.refuse(r);
-                state.safety.latch(StopReason::Calibration(r));
+                self.refused(state, r);
             }
             HandoverEvent::Missed => {
                 // The fit missed its sample: the record (complete, the experiment waits) is
@@ -847,9 +851,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
         let mut u = SignalI16F16::from_raw(u_raw);
         match event {
             calibration::experiment::Event::Recorded => post_fit(cal, state),
-            calibration::experiment::Event::Refused(r) => {
-                state.safety.latch(StopReason::Calibration(r));
-            }
+            calibration::experiment::Event::Refused(r) => self.refused(state, r),
             calibration::experiment::Event::None => {}
         }
         // A refusal latched above is the check's answer (a latched stop is returned as is).
@@ -885,6 +887,27 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             servo,
             stop,
             identifier: identified,
+        }
+    }
+}
+
+impl<C: Controller, I: Identifier> ServoConfig<C, I> {
+    /// Calibration refused the sled for `r`. At power-on, or for what a sled does not do (stuck,
+    /// reversed, out of its travel, a gain outside the range, a record that does not fit, a push
+    /// that did not end in time): the stop. A re-calibration that ran out of samples after every
+    /// push had ended (resting for its last, quiet start) found no fault (`calibration::watch`,
+    /// "A re-calibration without a model"): the previous model stands, counted as a fruitless
+    /// re-calibration, and the law resumes with its gains from a fresh signal history.
+    fn refused(&self, state: &mut ServoState<C, I>, r: Refusal) {
+        let complete = state.calibration.record().complete();
+        match (state.calibrated, r) {
+            (Some(previous), Refusal::Timeout) if complete => {
+                state.calibration.finish();
+                state.watch = state.watch.adopt(&previous);
+                self.controller.restart(&mut state.controller);
+                state.inconclusive = state.inconclusive.saturating_add(1);
+            }
+            _ => state.safety.latch(StopReason::Calibration(r)),
         }
     }
 }
@@ -950,6 +973,12 @@ impl<C: Controller, I: Identifier> ServoState<C, I> {
         self.calibrations
     }
 
+    /// Re-calibrations that ran out of samples after every push had ended, the previous model
+    /// kept instead of the stop.
+    pub fn inconclusive_calibrations(&self) -> u16 {
+        self.inconclusive
+    }
+
     /// What calibration found, once adopted.
     pub fn calibrated(&self) -> Option<&CalibratedModel> {
         self.calibrated.as_ref()
@@ -1011,6 +1040,7 @@ where
             calibration: self.calibration,
             calibrated: self.calibrated,
             calibrations: self.calibrations,
+            inconclusive: self.inconclusive,
             watch: self.watch,
         }
     }

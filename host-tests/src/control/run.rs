@@ -267,6 +267,8 @@ pub struct ControlRun {
     pub calibration: Option<CalibrationOutcome>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
     pub calibrations: u32,
+    /// Re-calibrations that ended without a model, the previous one kept.
+    pub calibrations_inconclusive: u16,
 }
 
 impl ControlRun {
@@ -409,6 +411,7 @@ pub fn run_servo_with_faults(
     let p = &params.plant;
     let mut calibrated = None;
     let mut calibrations = 0;
+    let mut calibrations_inconclusive = 0;
     let mut suspended_at = None;
     let (trace, seek_errors, redesigns, first_stop, kind) = match design {
         None => {
@@ -436,6 +439,7 @@ pub fn run_servo_with_faults(
             twin.set_controller_label("scheduled");
             super::inject::run_with_faults(&mut twin, &mut c, faults);
             calibrations = c.state.calibrations();
+            calibrations_inconclusive = c.state.inconclusive_calibrations();
             suspended_at = c.suspended_at;
             (
                 c.trace,
@@ -462,5 +466,6 @@ pub fn run_servo_with_faults(
         suspended_at,
         calibration: calibrated,
         calibrations,
+        calibrations_inconclusive,
     })
 }

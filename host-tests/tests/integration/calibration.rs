@@ -604,3 +604,43 @@ fn injected_faults_show_in_the_summary() {
     assert!(s.calibrations >= 2, "{s:?}");
     assert_eq!(s.unsettled, 0);
 }
+
+/// The fast, sticky corner in seek mode, seeds 1–10 of 100 seeks each: its seeks land a few
+/// quanta off and stick there, the watch calibrates again, and a re-calibration from a sled that
+/// flickers at rest can run out of its 330 samples. That latched the safety layer's stop
+/// (`calibration_timeout`) on a healthy sled — measured 2026-12-07 before the change: seeds 2
+/// and 10 stopped at seeks 5 and 8, 95 and 92 seeks unsettled, 1 of them reported (each record
+/// complete: four pushes braked, the closing rest unfinished). A re-calibration that runs out of
+/// samples after every push has ended now keeps the previous model (`sledid::servo::calibration::watch`, "A
+/// re-calibration without a model"): measured, no stop on any of the ten seeds, unsettled 7, 10,
+/// 2, 14, 8, 9, 9, 7, 5, 6, every one reported as a seek error, 2 re-calibrations kept the
+/// previous model. Asserted: no stop, no unsettled seek unreported, at least one re-calibration
+/// without a model over the seeds (the path runs). Trips on the stop restored, or on a resumed
+/// law that loses its seeks unreported. The corner's access times (median 26–33× its bound on 8
+/// of the 10 seeds) are issue 22's open work, not asserted here.
+#[test]
+fn a_recalibration_that_runs_out_of_samples_keeps_the_previous_model() {
+    use sledid_host::control::seek::run::run_seeks;
+    use sledid_host::control::seek::{SeekController, SeekOptions};
+    let params = FamilyRanges::default()
+        .corner(Corner::FastSticky)
+        .twin(&TwinParams::default());
+    let design = seek_design(design_from_prior(&params, &PlantParams::default()).unwrap());
+    let mut inconclusive = 0;
+    for seed in 1..=10 {
+        let schedule = SeekOptions {
+            seeks: 100,
+            seed,
+            calibrate: true,
+            ..SeekOptions::default()
+        };
+        let r = run_seeks(&params, &SeekController::Seek(design), &schedule).unwrap();
+        let s = &r.summary;
+        println!("seed {seed}: {}", s.line());
+        assert!(s.safe_stop.is_none(), "seed {seed}: {:?}", s.safe_stop);
+        assert_eq!(s.failing_unreported, 0, "seed {seed}");
+        assert_eq!(s.unsettled, s.unsettled_reported, "seed {seed}");
+        inconclusive += s.calibrations_inconclusive;
+    }
+    assert!(inconclusive >= 1, "no re-calibration ended without a model");
+}

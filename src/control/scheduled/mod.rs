@@ -1381,6 +1381,10 @@ impl Controller for ScheduledConfig {
         matches!(design.outcome, Redesign::Applied(_)) && design.gains.is_some()
     }
 
+    fn restart(&self, state: &mut ScheduledState) {
+        state.primed = false;
+    }
+
     /// θ → checked velocity model → placed gains (f32, outside the interrupt); with
     /// `identify_friction`, the Coulomb level u_c = c/Σb → its input compensation. The result
     /// is built in place (one design in the frame, not a placed copy moved into it).

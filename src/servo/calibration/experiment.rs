@@ -67,6 +67,13 @@ pub struct CalibrationRecord {
 }
 
 impl CalibrationRecord {
+    /// Every push recorded to its end (its braking included): what the fit needs.
+    pub fn complete(&self) -> bool {
+        self.segments
+            .iter()
+            .all(|s| s.drive_i16f16 != 0 && s.len > 0)
+    }
+
     /// Nothing recorded.
     pub const EMPTY: Self = Self {
         segments: [Segment::EMPTY; SEGMENTS],

@@ -77,6 +77,20 @@
 //! re-calibrations in a row the next one needs 2ⁿ commands in a row that miss their budget
 //! (n ≤ [`FRUITLESS_MAX`]); one that finds a changed sled resets n. A mass or friction change
 //! still finds its re-calibration, later.
+//!
+//! # A re-calibration without a model
+//! A re-calibration that runs out of its samples after every push has ended (a sled that flickers
+//! at rest never gives the experiment its closing quiet) found no fault of the sled — it had a
+//! model that worked until the commands missed their budgets. The previous model then stands: the watch is armed from it again, the re-calibration counted fruitless
+//! (the back-off above), and the law resumes with its gains from a fresh signal history
+//! ([`crate::control::Controller::restart`]). A sled that does not respond like one (stuck,
+//! reversed, out of its travel, a gain outside the range, a record that does not fit) or whose
+//! pushes do not end in time (a hundred times the mass: its last push still braking at the
+//! 330th sample) still stops the servo, as at power-on.
+//! Measured on the family's fast, sticky corner (`sledid seek --plant F`, seeds 1–10): the stop
+//! (`calibration_timeout`) on seeds 2 and 10 is gone, every unsettled seek reported; the wider
+//! family's safe stops 14 / 14 / 10 → 12 / 14 / 9 (seeds 1 / 7 / 2), the healthy families'
+//! figures unchanged (BENCHMARKS.md, "A re-calibration without a model").
 
 #![deny(clippy::float_arithmetic)]
 

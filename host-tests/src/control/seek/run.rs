@@ -232,6 +232,9 @@ pub struct SeekSummary {
     pub calibration: Option<CalibrationBrief>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
     pub calibrations: u32,
+    /// Re-calibrations that ended without a model (out of samples, or a record that did not
+    /// fit): the previous model kept instead of the stop.
+    pub calibrations_inconclusive: u16,
     /// The friction health verdict against power-on calibration (`sledid::servo::health`, run
     /// over the recorded samples from the first seek on), when the servo calibrated.
     pub health: Option<crate::reference::health::HealthBrief>,
@@ -272,11 +275,17 @@ impl SafeStop {
 impl SeekSummary {
     /// One line: access time, access / bound, overshoot, pulses, unsettled seeks and the stop.
     pub fn line(&self) -> String {
-        let recal = if self.calibrations > 1 {
+        let mut recal = if self.calibrations > 1 {
             format!(", calibrated again {}×", self.calibrations - 1)
         } else {
             String::new()
         };
+        if self.calibrations_inconclusive > 0 {
+            recal.push_str(&format!(
+                ", {} re-calibration(s) without a model (the previous one kept)",
+                self.calibrations_inconclusive
+            ));
+        }
         let stop = self.safe_stop.map_or(String::new(), |st| {
             format!(
                 "; SAFE STOP ({}) at sample {}, seek {}, reading {} quanta",
@@ -335,6 +344,7 @@ impl SeekSummary {
             safe_stop: None,
             calibration: None,
             calibrations: 0,
+            calibrations_inconclusive: 0,
             health: None,
         }
     }
@@ -412,6 +422,7 @@ pub fn run_seeks_with_faults(
         safe_stop: SafeStop::of(&run),
         calibration: run.calibration.map(|c| c.brief(params.plant.ts_s)),
         calibrations: run.calibrations,
+        calibrations_inconclusive: run.calibrations_inconclusive,
         ..SeekSummary::of(controller.label(), &rows, params.reference.dwell_s)
     };
     Ok(SeekRun {
