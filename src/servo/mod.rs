@@ -889,9 +889,7 @@ impl<C: Controller, I: Identifier> ServoConfig<C, I> {
             identifier: identified,
         }
     }
-}
 
-impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Calibration refused the sled for `r`. At power-on, or for what a sled does not do (stuck,
     /// reversed, out of its travel, a gain outside the range, a record that does not fit, a push
     /// that did not end in time): the stop. A re-calibration that ran out of samples after every

@@ -260,21 +260,25 @@ impl SafetyConfig {
     /// [`Self::check`] and recovers.
     pub fn fallback_recovery(&self, state: &mut SafetyState) -> bool {
         let k = state.k;
-        let limit = usize::from(self.fallback_limit);
-        // After this entry's shift the entry now at slot limit − 1 would be the oldest kept.
-        let stopping = matches!(
-            state.fallbacks.get(limit.saturating_sub(1)),
-            Some(Some(oldest)) if k.wrapping_sub(*oldest) < self.fallback_window
-        );
         let allowed = state
             .recovered_at
             .is_none_or(|at| k.wrapping_sub(at) >= self.fallback_window);
-        if state.latched.is_some() || !stopping || !allowed {
+        if state.latched.is_some() || !self.entry_would_stop(state) || !allowed {
             return false;
         }
         state.recovered_at = Some(k);
         state.fallbacks = [None; FALLBACK_LIMIT_MAX + 1];
         true
+    }
+
+    /// Whether a fallback entry on this sample (k) makes M + 1 within W: the entry remembered at
+    /// slot M − 1, which this entry's shift would make the oldest kept, is less than W old.
+    fn entry_would_stop(&self, state: &SafetyState) -> bool {
+        let limit = usize::from(self.fallback_limit);
+        matches!(
+            state.fallbacks.get(limit.saturating_sub(1)),
+            Some(Some(oldest)) if state.k.wrapping_sub(*oldest) < self.fallback_window
+        )
     }
 
     /// One sample's check, after the controller's step: the reading `y` (`None`: lost), its
@@ -319,17 +323,14 @@ impl SafetyConfig {
     ) -> Option<StopReason> {
         if fallback_entered {
             // The oldest remembered entry falls out; M + 1 within W stops.
+            let stops = self.entry_would_stop(state);
             // A shift by one slot, k in front (`rotate_right(1)` then k would link a 1.3–1.6 KB
             // `memmove` into an image for these few words).
-            let k = state.k;
-            let mut carry = Some(k);
+            let mut carry = Some(state.k);
             for slot in &mut state.fallbacks {
                 carry = core::mem::replace(slot, carry);
             }
-            let limit = usize::from(self.fallback_limit);
-            if let Some(Some(oldest)) = state.fallbacks.get(limit)
-                && k.wrapping_sub(*oldest) < self.fallback_window
-            {
+            if stops {
                 return Some(StopReason::Fallbacks);
             }
         }

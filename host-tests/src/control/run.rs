@@ -261,13 +261,12 @@ pub struct ControlRun {
     pub redesigns: Vec<Redesign>,
     /// The servo's first safe stop (sample, reason), if any.
     pub first_stop: Option<(usize, StopReason)>,
-    /// The sample the servo suspended identification at, if it did.
-    pub suspended_at: Option<usize>,
     /// Power-on calibration, when the servo calibrated.
     pub calibration: Option<CalibrationOutcome>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
     pub calibrations: u32,
-    /// Re-calibrations that ended without a model, the previous one kept.
+    /// Re-calibrations that ran out of samples after every push had ended, the previous model
+    /// kept.
     pub calibrations_inconclusive: u16,
 }
 
@@ -463,7 +462,6 @@ pub fn run_servo_with_faults(
         summary,
         redesigns,
         first_stop,
-        suspended_at,
         calibration: calibrated,
         calibrations,
         calibrations_inconclusive,

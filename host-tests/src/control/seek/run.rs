@@ -232,8 +232,8 @@ pub struct SeekSummary {
     pub calibration: Option<CalibrationBrief>,
     /// Calibrations adopted over the run (power-on's and every re-calibration).
     pub calibrations: u32,
-    /// Re-calibrations that ended without a model (out of samples, or a record that did not
-    /// fit): the previous model kept instead of the stop.
+    /// Re-calibrations that ran out of samples after every push had ended: the previous model
+    /// kept instead of the stop.
     pub calibrations_inconclusive: u16,
     /// The friction health verdict against power-on calibration (`sledid::servo::health`, run
     /// over the recorded samples from the first seek on), when the servo calibrated.
