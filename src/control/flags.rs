@@ -40,9 +40,13 @@ impl ControlFlags {
     /// sled's return after a kick — not motion; nothing damps (`scheduled::rest`, "A resting
     /// sled's flicker", "A kick's return").
     pub const FLICKER: Self = Self(1 << 13);
+    /// Settle after a time-optimal seek, a fine step on a sticky model: an off-sample of the
+    /// pulsed drive — nothing drives, the integrator runs on (`scheduled`, "Settle of a
+    /// time-optimal seek").
+    pub const PULSE_OFF: Self = Self(1 << 14);
 
     /// All flags with their names, in bit order.
-    pub const NAMES: [(Self, &'static str); 14] = [
+    pub const NAMES: [(Self, &'static str); 15] = [
         (Self::OUTPUT_SATURATED, "output_saturated"),
         (Self::INTEGRATOR_LIMITED, "integrator_limited"),
         (Self::INTEGRATION_HELD, "integration_held"),
@@ -57,6 +61,7 @@ impl ControlFlags {
         (Self::COASTING, "coasting"),
         (Self::INTEGRATOR_RESTARTED, "integrator_restarted"),
         (Self::FLICKER, "flicker"),
+        (Self::PULSE_OFF, "pulse_off"),
     ];
 }
 

@@ -51,6 +51,13 @@
 //! sled whose gain is up to (1 + a)/(a − p) times the model's — the prior's setting. α < 1 leaves
 //! the loop a margin of braking for a sled weaker than its model.
 //!
+//! **Uncompensated drives.** Where the drive did not compensate friction (the settle law's
+//! coasting, Hold, a pulsed settle's off-samples) the sled sees Coulomb friction the predict step
+//! above leaves out: after it, [`SeekObserver::coulomb_decay`] takes b·u_c off |v̂|, never
+//! reversing it (v̂ ← sgn(v̂)·max(|v̂| − b·u_c, 0)). Without it a sticky sled at rest kept a
+//! model velocity that coasted x̂ across a cell's edge, and the correction's kick was damped
+//! as motion.
+//!
 //! # Hand-over
 //! The law brings the sled to rest on the target; the Seek region is left only once the sled is
 //! at rest in the settle band — by the observer ([`SeekPlan::at_rest`]: |v̂| under the speed whose
@@ -529,6 +536,16 @@ impl SeekPlan {
         shr_round(self.k_c1.apply(v).saturating_add(self.k_b0.apply(drive)))
     }
 
+    /// The model is sticky: friction takes more than twice the arrival speed off a sample's
+    /// velocity (b·u_c > 2·v_arrive) — it stops a sled within a sample, and breaking it away
+    /// from rest takes a drive that, held on, throws it a few quanta ([`super::scheduled`],
+    /// "Settle of a time-optimal seek"). The nominal sled's model is near b·u_c = v_arrive:
+    /// the margin of 2 keeps an identified model of it out (measured, BENCHMARKS.md).
+    #[inline]
+    pub fn sticky(&self) -> bool {
+        shr_round(self.k_b.apply(self.u_coulomb)) > 2 * i64::from(self.v_arrive)
+    }
+
     /// The observer has the sled at rest: |v̂| ≤ v_arrive.
     #[inline]
     pub fn at_rest(&self, v_hat: i32) -> bool {
@@ -604,6 +621,18 @@ impl SeekObserver {
             self.v_hat =
                 crate::num::fixed::sat_i32(i64::from(self.v_hat).saturating_add(dv), saturated);
         }
+    }
+
+    /// Coulomb friction over the last sample of a drive that did not compensate it (module doc,
+    /// "Uncompensated drives"): it takes up to b·u_c off |v̂| and never reverses it.
+    pub fn coulomb_decay(&mut self, plan: &SeekPlan) {
+        let step = shr_round(plan.k_b.apply(plan.u_coulomb)).clamp(0, i64::from(i32::MAX));
+        let speed = i64::from(self.v_hat.unsigned_abs())
+            .saturating_sub(step)
+            .max(0);
+        // |v̂| − step ≤ |v̂| ≤ 2³¹: fits i32 after the sign.
+        let speed = i32::try_from(speed).unwrap_or(i32::MAX);
+        self.v_hat = if self.v_hat < 0 { -speed } else { speed };
     }
 
     /// x̂, I48F16 raw quanta.
@@ -853,6 +882,46 @@ mod tests {
         // The rail: the sled gets u_max past friction.
         let (u, applied) = plan.compensate(80_000, 20 << 16, 65_536);
         assert_eq!((u, applied), (65_536, 65_536 - uc));
+    }
+
+    /// Coulomb decay takes b·u_c off |v̂| each call, in either direction, and stops at 0
+    /// (never reverses); trips on a decay that reverses v̂, ignores the sign or friction's size.
+    #[test]
+    fn coulomb_decay_slows_the_model_sled_to_rest_and_not_past() {
+        // b = 10 quanta per sample per full scale, u_c = 0.02: 0.2 quantum per sample per call.
+        let plan = SeekPlan::design(0.9, 10.0, 0.02, 1.0, 0.7, 0.0).unwrap();
+        let step = (plan.k_b.apply(plan.u_coulomb) >> 16) as f64 / 65_536.0;
+        assert!((step - 0.2).abs() < 1e-3, "{step}");
+        for sign in [1i32, -1] {
+            let mut obs = SeekObserver::new();
+            obs.v_hat = sign * (1 << 15); // 0.5 quantum per sample
+            obs.coulomb_decay(&plan);
+            let v = f64::from(obs.velocity()) / 65_536.0;
+            assert!((v - f64::from(sign) * 0.3).abs() < 1e-3, "{v}");
+            obs.coulomb_decay(&plan);
+            obs.coulomb_decay(&plan);
+            assert_eq!(obs.velocity(), 0, "at rest, not reversed");
+            obs.coulomb_decay(&plan);
+            assert_eq!(obs.velocity(), 0);
+        }
+    }
+
+    /// A plan is sticky where friction takes more than 2·v_arrive off a sample's velocity: a
+    /// fast, sticky model (b·u_c ≈ 0.68 against v_arrive ≈ 0.24) is; a heavy, nearly
+    /// frictionless one (0.009 against 0.017) is not, nor the fast one without friction, nor
+    /// the nominal sled's (0.177 against 0.182). Trips on the comparison inverted, on u_c left
+    /// out, or on a margin of 1 that a model near the nominal sled's crosses.
+    #[test]
+    fn a_fast_sticky_model_is_sticky_and_a_gliding_one_is_not() {
+        let sticky = SeekPlan::design(0.78, 76.0, 0.009, 1.0, 0.7, 0.0).unwrap();
+        assert!(sticky.sticky(), "{sticky:?}");
+        let heavy = SeekPlan::design(0.983, 1.8, 0.005, 1.0, 0.7, 0.0).unwrap();
+        assert!(!heavy.sticky(), "{heavy:?}");
+        let frictionless = SeekPlan::design(0.78, 76.0, 0.0, 1.0, 0.7, 0.0).unwrap();
+        assert!(!frictionless.sticky());
+        // The nominal model with 1.5× its friction: b·u_c ≈ 1.46·v_arrive, still not sticky.
+        let nominal = SeekPlan::design(0.8336, 23.66, 0.0075 * 1.5, 1.0, 0.7, 0.0).unwrap();
+        assert!(!nominal.sticky(), "{nominal:?}");
     }
 
     #[test]

@@ -166,6 +166,10 @@ pub struct ScheduledF64 {
     v_hat: f64,
     /// The time-optimal seek's observer.
     seek_observer: SeekObserverF64,
+    /// The last drive left Coulomb friction uncompensated (coasting, Hold, a pulse's off-sample).
+    friction_free_drive: bool,
+    /// This sample is an off-sample of the pulsed settle drive (the fixed point's decision).
+    pulse_off: bool,
     integral: f64,
     last_v: f64,
     last_u: f64,
@@ -215,6 +219,8 @@ impl ScheduledF64 {
             dr1_previous: 0.0,
             v_hat: 0.0,
             seek_observer: SeekObserverF64::default(),
+            friction_free_drive: false,
+            pulse_off: false,
             integral: 0.0,
             last_v: 0.0,
             last_u: 0.0,
@@ -288,6 +294,7 @@ impl ScheduledF64 {
     pub fn step_as(&mut self, out: &ControlOutput, r: f64, y: f64) -> f64 {
         let mode = LawMode::of(out, self.prior.is_some());
         let fallback = out.flags.contains(ControlFlags::FALLBACK);
+        self.pulse_off = out.flags.contains(ControlFlags::PULSE_OFF);
         self.step(mode, fallback, r, y)
     }
 
@@ -334,7 +341,11 @@ impl ScheduledF64 {
         let time_optimal = matches!(d.seek, SeekMode::TimeOptimal(_));
         if time_optimal {
             self.seek_observer.update(plan.as_ref(), self.last_v, y);
+            if self.friction_free_drive {
+                self.seek_observer.coulomb_decay(plan.as_ref());
+            }
         }
+        self.friction_free_drive = false;
         let previous = std::mem::replace(&mut self.mode, mode);
         let entering_settle = matches!(
             mode,
@@ -374,6 +385,7 @@ impl ScheduledF64 {
         let (terms, integrating, compensate) = match mode {
             LawMode::Hold => {
                 self.integral = 0.0;
+                self.friction_free_drive = true;
                 let u = d.hold_bias_v / fs;
                 self.last_u = u;
                 self.last_v = self.forward(u);
@@ -401,13 +413,27 @@ impl ScheduledF64 {
             }
             LawMode::Coast | LawMode::CoastFlicker => {
                 self.integral = 0.0;
+                self.friction_free_drive = true;
                 // Damping past a dead zone of l/2 quanta per sample (half what one flicker of
-                // the reading moves v̂ by); a still sled's flicker is not motion.
-                let w = g.obs_l / 2.0;
-                let moving = if mode == LawMode::CoastFlicker {
-                    0.0
-                } else {
-                    self.v_hat - self.v_hat.clamp(-w, w)
+                // the reading moves v̂ by) — after a time-optimal seek, of the seek observer's v̂
+                // past v_arrive; a still sled's flicker is not motion.
+                let moving = match (mode, time_optimal, plan.as_ref()) {
+                    (LawMode::CoastFlicker, _, _) => 0.0,
+                    (_, true, Some(p)) => {
+                        let (v, w) = (self.seek_observer.v, p.v_arrive());
+                        let gliding = v - v.clamp(-w, w);
+                        let l = g.obs_l / 2.0;
+                        let moving = self.v_hat - self.v_hat.clamp(-l, l);
+                        if gliding.abs() > moving.abs() {
+                            gliding
+                        } else {
+                            moving
+                        }
+                    }
+                    _ => {
+                        let w = g.obs_l / 2.0;
+                        self.v_hat - self.v_hat.clamp(-w, w)
+                    }
                 };
                 let v = -g.kd_settle * moving;
                 let u = v.clamp(-u_max, u_max);
@@ -435,6 +461,13 @@ impl ScheduledF64 {
             }
         } else {
             self.integral -= self.integral / 16.0;
+        }
+        if self.pulse_off {
+            // An off-sample of the pulsed settle drive: the integrator ran, nothing drives.
+            self.friction_free_drive = true;
+            self.last_v = 0.0;
+            self.last_u = 0.0;
+            return 0.0;
         }
         let v = terms + self.integral;
         let u = if compensate { self.inverse(v) } else { v }.clamp(-u_max, u_max);

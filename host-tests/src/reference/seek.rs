@@ -33,6 +33,13 @@ pub struct SeekObserverF64 {
 }
 
 impl SeekObserverF64 {
+    /// Coulomb friction over an uncompensated drive: |v̂| less b·u_c, never reversed.
+    pub fn coulomb_decay(&mut self, plan: Option<&SeekF64>) {
+        if let Some(p) = plan {
+            self.v = self.v.signum() * (self.v.abs() - p.coulomb_step()).max(0.0);
+        }
+    }
+
     /// One sample: predict with `plan`'s model (none: no motion) and the applied linear drive,
     /// correct by what the reading `y` lies outside the predicted cell.
     pub fn update(&mut self, plan: Option<&SeekF64>, drive: f64, y: f64) {
@@ -167,6 +174,16 @@ impl SeekF64 {
         let left = e - (self.c1 - self.a * self.b0 / self.b) * v_hat;
         let w_star = left.signum() * self.speed(left.abs());
         ((1.0 - self.p) * w_star + (self.p - self.a) * v_hat) / self.b
+    }
+
+    /// The arrival speed, quanta per sample.
+    pub fn v_arrive(&self) -> f64 {
+        self.v_arrive
+    }
+
+    /// b·u_c: what Coulomb friction takes off a sample's velocity, quanta per sample.
+    pub fn coulomb_step(&self) -> f64 {
+        self.b * self.u_c
     }
 
     /// |v̂| ≤ the arrival speed.

@@ -614,10 +614,14 @@ fn injected_faults_show_in_the_summary() {
 /// samples after every push has ended now keeps the previous model (`sledid::servo::calibration::watch`, "A
 /// re-calibration without a model"): measured, no stop on any of the ten seeds, unsettled 7, 10,
 /// 2, 14, 8, 9, 9, 7, 5, 6, every one reported as a seek error, 2 re-calibrations kept the
-/// previous model. Asserted: no stop, no unsettled seek unreported, at least one re-calibration
-/// without a model over the seeds (the path runs). Trips on the stop restored, or on a resumed
-/// law that loses its seeks unreported. The corner's access times (median 26–33× its bound on 8
-/// of the 10 seeds) are issue 22's open work, not asserted here.
+/// previous model. Since the settle rules of 2026-12-07 (`control::scheduled`, "Settle of a
+/// time-optimal seek") no re-calibration of seeds 1–10 runs out of samples (unsettled 9, 7, 0,
+/// 6, 13, 10, 5, 7, 10, 5, all reported), so the path that keeps the model is not reached here;
+/// the timeouts come from calibration's rest brake, which on this sled hops it ±2 quanta a
+/// sample until the experiment's samples run out (BENCHMARKS.md, "Settle after a time-optimal
+/// seek": variants of the settle rules stopped on seeds 2, 6 or 7). Asserted: no stop, no
+/// unsettled seek unreported. Trips on the stop restored for such a timeout, or on a resumed
+/// law that loses its seeks unreported.
 #[test]
 fn a_recalibration_that_runs_out_of_samples_keeps_the_previous_model() {
     use sledid_host::control::seek::run::run_seeks;
@@ -626,7 +630,6 @@ fn a_recalibration_that_runs_out_of_samples_keeps_the_previous_model() {
         .corner(Corner::FastSticky)
         .twin(&TwinParams::default());
     let design = seek_design(design_from_prior(&params, &PlantParams::default()).unwrap());
-    let mut inconclusive = 0;
     for seed in 1..=10 {
         let schedule = SeekOptions {
             seeks: 100,
@@ -640,7 +643,5 @@ fn a_recalibration_that_runs_out_of_samples_keeps_the_previous_model() {
         assert!(s.safe_stop.is_none(), "seed {seed}: {:?}", s.safe_stop);
         assert_eq!(s.failing_unreported, 0, "seed {seed}");
         assert_eq!(s.unsettled, s.unsettled_reported, "seed {seed}");
-        inconclusive += s.calibrations_inconclusive;
     }
-    assert!(inconclusive >= 1, "no re-calibration ended without a model");
 }

@@ -765,12 +765,14 @@ fn pil_matches_host(core: Core) {
         .collect();
     assert_eq!(missed.len(), faults.missed_jobs.len(), "{missed:?}");
     // The seek mode posts its redesign on arrival: both misses fall after the seek — L = 64
-    // samples later, in Hold (at L = 12 they fell in Settle) — which goes on with the old gains
-    // (every seek settled, above).
-    assert_eq!(
-        missed_regions,
-        [Region::Hold.index(); 2],
-        "hand-overs missed while holding: {missed:?} in regions {missed_regions:?}"
+    // samples later, in Settle or Hold (the first in Settle since a Hold one cell off waits for
+    // a fine step to end, 2026-12-07; both in Hold before; at L = 12 both in Settle) — which
+    // goes on with the old gains (every seek settled, above). Trips on a miss inside a seek.
+    assert!(
+        missed_regions
+            .iter()
+            .all(|&r| r == Region::Hold.index() || r == Region::Settle.index()),
+        "hand-overs missed after the seek: {missed:?} in regions {missed_regions:?}"
     );
     assert_eq!(
         timing.late_dropped,

@@ -17,6 +17,20 @@
 //! Redesign: θ = [a…, b…, c] → (a, b) placed; h = Coulomb map of u_c = c/Σb    (friction identified)
 //! Settle with a Wiener output map ŷ = x + w·tanh(a·x + c):  e ← −m⁻¹(y − r)   (output compensation)
 //! ```
+//! **Settle of a time-optimal seek** (the rules below measured over 16 families of 200 plants,
+//! BENCHMARKS.md, "Settle after a time-optimal seek"). Coasting damps the larger of two
+//! motions: the seek observer's v̂ (model-propagated, sub-quantum) beyond v_arrive, and the
+//! velocity observer's beyond l/2 — a heavy, nearly frictionless sled left gliding at a tenth
+//! of a quantum per sample is under the latter's dead zone and coasts out of the band; a fast
+//! sled the model has (wrongly) at rest shows only in the latter. Hold takes a sled only at
+//! rest by the seek observer's v̂ too. On a sticky model ([`super::seek::SeekPlan::sticky`]) a
+//! fine step's drive, while the reading stands still, is applied one sample in [`PULSE_PERIOD`]:
+//! a ramp that breaks the sled away keeps driving it until the reading shows the move — on a
+//! fast sled with stiction 2–3× its Coulomb level, three quanta and more — while a pulse stops
+//! driving at once and friction stops the sled within a sample or two. Pulsing every still
+//! settle sample, not only fine steps, helped the sticky sleds a little more and cost the
+//! nominal sled's short dwells their pulses (measured in BENCHMARKS.md).
+//!
 //! The paper (§3, Fig. 4) shows the baseline's ±1-quantum limit cycle is controller-induced and
 //! that the lens loop takes up the residual error: Hold stops driving the sled inside the band and
 //! lets static friction hold it.
@@ -338,6 +352,11 @@ pub struct ScheduledState {
     /// The time-optimal seek's observer of position and velocity (runs every sample when seeks
     /// are time-optimal).
     seek_observer: SeekObserver,
+    /// The last sample's drive left Coulomb friction uncompensated (coasting, Hold, a pulse's
+    /// off-sample): the seek observer decays v̂ by it.
+    friction_free_drive: bool,
+    /// The pulsed settle drive's phase, 0 … [`PULSE_PERIOD`] − 1 (0: on).
+    pulse_phase: u8,
     /// Samples a time-optimal seek has spent in the settle band without arriving.
     arrival_wait: u16,
     /// Rest, cell and band bookkeeping near the target.
@@ -387,6 +406,8 @@ impl ScheduledState {
             hold_error: 0,
             observer: VelocityObserver::new(),
             seek_observer: SeekObserver::new(),
+            friction_free_drive: false,
+            pulse_phase: 0,
             arrival_wait: 0,
             near: NearTarget::new(),
             gains,
@@ -454,6 +475,10 @@ impl ScheduledState {
 /// A time-optimal seek in the settle band hands over to Settle after this many samples even if
 /// it has not arrived (a sled friction holds short of the target cell).
 pub const ARRIVAL_WAIT_SAMPLES: u16 = 16;
+
+/// A fine step's drive on a sticky model is applied one sample in this many (module doc,
+/// "Settle of a time-optimal seek"); a power of two.
+pub const PULSE_PERIOD: u8 = 4;
 
 /// Trusted identifier updates since the last redesign after which a settling controller asks for
 /// another.
@@ -765,6 +790,7 @@ impl ScheduledConfig {
             sat: false,
         };
         let mut s = self.measure(state, r, y, report, &mut tally);
+        state.friction_free_drive = false;
         let sel = self.select(state, &mut s, &mut tally.flags);
         request_redesign_when_due(state, &s, &sel, &mut tally.flags);
         self.learn_seek_gain(state, &s, &sel, &mut tally.flags);
@@ -784,7 +810,7 @@ impl ScheduledConfig {
                 self.fine_step_terms(state, &s, &sel.verdict, &mut tally.flags)
             }
             Region::Settle if near => return self.step_coasting(state, &s, tally),
-            Region::Settle => self.settle_terms(state, &s, true),
+            Region::Settle => self.settle_terms(state, &s, true, false),
         };
         self.update_integral(state, &s, &sel, terms, returning, &mut tally.flags);
         self.drive_pid(state, terms, sel.region, tally)
@@ -831,6 +857,9 @@ impl ScheduledConfig {
             state
                 .seek_observer
                 .update(&g.seek, v_prev, y_lin, &mut tally.sat);
+            if state.friction_free_drive {
+                state.seek_observer.coulomb_decay(&g.seek);
+            }
             let x_hat = state.seek_observer.position();
             (
                 sat_i32(r.raw().saturating_sub(x_hat), &mut tally.sat),
@@ -893,13 +922,12 @@ impl ScheduledConfig {
             state.last_u != 0,
         );
         let previous = state.region;
-        let mut region = self.selector.select(
-            previous,
-            s.e,
-            s.dr1,
-            verdict.holdable,
-            &mut state.hold_error,
-        );
+        // Time-optimal seeks: Hold takes a sled at rest by the model too (a frictionless sled
+        // the last push set gliding is at rest by its readings for a while).
+        let holdable = verdict.holdable && (!s.time_optimal || g.seek.at_rest(s.v_seek));
+        let mut region =
+            self.selector
+                .select(previous, s.e, s.dr1, holdable, &mut state.hold_error);
         if s.time_optimal
             && previous == Region::Seek
             && region == Region::Settle
@@ -1012,6 +1040,7 @@ impl ScheduledConfig {
         // Nothing drives (not even the compensation map's value at 0): static friction
         // holds the sled; no integrator.
         state.integral_i32f32 = 0;
+        state.friction_free_drive = true;
         state.last_u = self.hold_bias;
         state.last_v_i32f32 = i64::from(forward(state, self.hold_bias)) << 16;
         tally.finish(self.hold_bias, Region::Hold)
@@ -1052,6 +1081,7 @@ impl ScheduledConfig {
     ) -> ControlOutput {
         tally.flags.insert(ControlFlags::COASTING);
         state.integral_i32f32 = 0;
+        state.friction_free_drive = true;
         let flicker = state
             .still
             .flicker(s.y.raw(), state.last_u == 0, !s.time_optimal);
@@ -1059,6 +1089,18 @@ impl ScheduledConfig {
         let g = self.gains_in_use(&state.gains, s.falling_back);
         let moving = if flicker {
             0
+        } else if s.time_optimal {
+            // The larger of the two observers' motions past their dead zones: the seek
+            // observer's sees a glide below a quantum per sample, the reading's a fast sled the
+            // model has (wrongly) at rest.
+            let w = g.seek.v_arrive;
+            let gliding = s.v_seek.saturating_sub(s.v_seek.max(-w).min(w));
+            let moving = dead_zone(s.v_hat, g.obs_l);
+            if gliding.unsigned_abs() > moving.unsigned_abs() {
+                gliding
+            } else {
+                moving
+            }
         } else {
             dead_zone(s.v_hat, g.obs_l)
         };
@@ -1083,6 +1125,7 @@ impl ScheduledConfig {
                 .saturating_add(g.ka_ff.apply(s.ar)),
             integrating: false,
             compensate: true,
+            pulsed: false,
         }
     }
 
@@ -1104,11 +1147,18 @@ impl ScheduledConfig {
             state.integral_i32f32 = 0;
             flags.insert(ControlFlags::INTEGRATOR_RESTARTED);
         }
-        self.settle_terms(state, s, false)
+        self.settle_terms(state, s, false, true)
     }
 
-    /// The settle law's PD terms (`compensate`: through the input compensation).
-    fn settle_terms(&self, state: &ScheduledState, s: &Sample, compensate: bool) -> Terms {
+    /// The settle law's PD terms (`compensate`: through the input compensation; `fine`: a fine
+    /// step's, pulsed on a sticky sled).
+    fn settle_terms(
+        &self,
+        state: &ScheduledState,
+        s: &Sample,
+        compensate: bool,
+        fine: bool,
+    ) -> Terms {
         let g = self.gains_in_use(&state.gains, s.falling_back);
         Terms {
             sum_i32f32: g
@@ -1117,6 +1167,7 @@ impl ScheduledConfig {
                 .saturating_sub(g.kd_settle.apply(s.v_hat)),
             integrating: true,
             compensate,
+            pulsed: fine && s.time_optimal && s.dy1 == 0 && g.seek.sticky(),
         }
     }
 
@@ -1134,10 +1185,27 @@ impl ScheduledConfig {
             Some(map) if terms.compensate => map.apply(v_i16f16),
             _ => v_i16f16,
         };
-        let u = clamp_sym_i32(u_raw, self.u_max());
+        let mut u = clamp_sym_i32(u_raw, self.u_max());
         tally
             .flags
             .set_if(ControlFlags::OUTPUT_SATURATED, u != u_raw);
+        let off = if terms.pulsed {
+            state.pulse_phase = (state.pulse_phase + 1) & (PULSE_PERIOD - 1);
+            state.pulse_phase != 0
+        } else {
+            state.pulse_phase = 0;
+            false
+        };
+        if off {
+            // An off-sample of the pulsed drive: nothing drives, friction acts (the seek
+            // observer's Coulomb decay); the integrator ran on.
+            u = 0;
+            tally.flags.insert(ControlFlags::PULSE_OFF);
+            state.friction_free_drive = true;
+            state.last_v_i32f32 = 0;
+            state.last_u = 0;
+            return tally.finish(u, region);
+        }
         // The linear drive the sled sees: v, or h(u) where the map was not applied. (Where the
         // rail clips u the sled sees h(u), not v: the velocity observer is fed v there, and
         // feeding it h(u) moved the reference-following family's holding error from 1.49 to
@@ -1266,6 +1334,9 @@ struct Terms {
     integrating: bool,
     /// The input compensation applies.
     compensate: bool,
+    /// A fine step on a sticky model, the reading still (time-optimal seeks): the drive is
+    /// applied one sample in [`PULSE_PERIOD`].
+    pulsed: bool,
 }
 
 /// The flags of one sample and whether any fixed-point narrowing saturated on the way.
