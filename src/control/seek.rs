@@ -543,7 +543,13 @@ impl SeekPlan {
     /// the margin of 2 keeps an identified model of it out (measured, BENCHMARKS.md).
     #[inline]
     pub fn sticky(&self) -> bool {
-        shr_round(self.k_b.apply(self.u_coulomb)) > 2 * i64::from(self.v_arrive)
+        self.coulomb_step() > 2 * i64::from(self.v_arrive)
+    }
+
+    /// b·u_c, I16F16 raw quanta per sample: what Coulomb friction takes off a sample's velocity.
+    #[inline]
+    pub fn coulomb_step(&self) -> i64 {
+        shr_round(self.k_b.apply(self.u_coulomb))
     }
 
     /// The observer has the sled at rest: |v̂| ≤ v_arrive.
@@ -626,7 +632,7 @@ impl SeekObserver {
     /// Coulomb friction over the last sample of a drive that did not compensate it (module doc,
     /// "Uncompensated drives"): it takes up to b·u_c off |v̂| and never reverses it.
     pub fn coulomb_decay(&mut self, plan: &SeekPlan) {
-        let step = shr_round(plan.k_b.apply(plan.u_coulomb)).clamp(0, i64::from(i32::MAX));
+        let step = plan.coulomb_step().clamp(0, i64::from(i32::MAX));
         let speed = i64::from(self.v_hat.unsigned_abs())
             .saturating_sub(step)
             .max(0);

@@ -258,13 +258,13 @@ fn sub_family(ranges: FamilyRanges, seed: u64, plants: u64) -> [usize; 4] {
             calibrate: true,
             ..SeekOptions::default()
         };
-        let r = run_seeks(&params, &SeekController::Seek(design), &schedule).unwrap();
-        let unsettled = r.rows.iter().filter(|x| !x.settled).count();
-        let pulses: usize = r.rows.iter().map(|x| x.limit_cycle_pulses).sum();
-        n[0] += usize::from(unsettled + pulses > 0);
-        n[1] += unsettled;
-        n[2] += pulses;
-        n[3] += usize::from(r.summary.safe_stop.is_some());
+        let s = run_seeks(&params, &SeekController::Seek(design), &schedule)
+            .unwrap()
+            .summary;
+        n[0] += usize::from(s.unsettled + s.limit_cycle_pulses > 0);
+        n[1] += s.unsettled;
+        n[2] += s.limit_cycle_pulses;
+        n[3] += usize::from(s.safe_stop.is_some());
     }
     n
 }

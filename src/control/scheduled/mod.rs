@@ -1093,8 +1093,7 @@ impl ScheduledConfig {
             // The larger of the two observers' motions past their dead zones: the seek
             // observer's sees a glide below a quantum per sample, the reading's a fast sled the
             // model has (wrongly) at rest.
-            let w = g.seek.v_arrive;
-            let gliding = s.v_seek.saturating_sub(s.v_seek.max(-w).min(w));
+            let gliding = past(s.v_seek, g.seek.v_arrive);
             let moving = dead_zone(s.v_hat, g.obs_l);
             if gliding.unsigned_abs() > moving.unsigned_abs() {
                 gliding
@@ -1576,5 +1575,10 @@ fn compensation_level(map: Option<&InverseInputMap>) -> f32 {
 /// Never panics: the width is taken as |l|/2 (a validated l is in [0, 1]).
 fn dead_zone(v: i32, l: crate::num::gain::Gain) -> i32 {
     let width = (sat_i32(shr_round_i64(l.apply(1 << 16), 16), &mut false) >> 1).saturating_abs();
+    past(v, width)
+}
+
+/// `v` less a dead zone of ±`width` (≥ 0), I16F16 raw.
+fn past(v: i32, width: i32) -> i32 {
     v.saturating_sub(v.max(-width).min(width))
 }
