@@ -226,6 +226,10 @@ pub struct ModelGains {
     /// The time-optimal seek's plan ([`super::seek`]; [`SeekPlan::NONE`] for reference-following
     /// seeks).
     pub seek: SeekPlan,
+    /// A breakaway throws the model's sled ([`breakaway_throws`]): a reference-following fine
+    /// step on a sled that a breakaway has thrown past the target is pulsed
+    /// ([`super::scheduled`], "Settle of a time-optimal seek").
+    pub breakaway_throws: bool,
 }
 
 impl ModelGains {
@@ -272,7 +276,23 @@ impl ModelGains {
         obs_b: Gain::ZERO,
         obs_l: Gain::ZERO,
         seek: SeekPlan::NONE,
+        breakaway_throws: false,
     };
+}
+
+/// b·u_c, quanta per sample, from which a breakaway throws a sled: at least 1/8 quantum per
+/// sample (module doc of [`super::scheduled::rest`], "A sticking sled's breakaway").
+pub const BREAKAWAY_THROW_COULOMB_STEP: f32 = 0.125;
+
+/// What Coulomb friction takes off a sample's velocity, b·u_c (gain `b` in quanta per sample per
+/// full scale, the Coulomb level `u_c` in full scale), is at least
+/// [`BREAKAWAY_THROW_COULOMB_STEP`]: a sled sticking at 2–3× that level, broken away by a drive
+/// held for a sample, moves about (s − 1)·b·u_c — a cell or more on the light, sticky sleds
+/// (b·u_c 0.25–0.8 quantum per sample over the families' plants that overshot), a fraction of
+/// one on the heavy ones (under 0.09).
+#[allow(clippy::float_arithmetic)] // the redesign's, outside the interrupt
+pub fn breakaway_throws(model: VelocityModel, u_c: f32) -> bool {
+    model.b * u_c >= BREAKAWAY_THROW_COULOMB_STEP
 }
 
 /// θ = [a₁ … a_na, b₁ …] → the velocity model, with the supervisor's checks.
@@ -372,6 +392,7 @@ pub fn place(model: VelocityModel, placement: &PlacementDesign) -> Result<ModelG
         obs_b: Gain::from_f64(f64::from((1.0 - l) * b)).ok_or(Rejection::GainFormat)?,
         obs_l: unit(l)?,
         seek: SeekPlan::NONE,
+        breakaway_throws: false,
     })
 }
 
@@ -461,7 +482,8 @@ impl Words for ModelGains {
         .put(w)?;
         self.rest_samples.put(w)?;
         self.rest_speed_i16f16.put(w)?;
-        self.seek.put(w)
+        self.seek.put(w)?;
+        self.breakaway_throws.put(w)
     }
     fn take(r: &mut WordReader<'_>) -> Self {
         let [
@@ -492,6 +514,7 @@ impl Words for ModelGains {
             obs_b,
             obs_l,
             seek: SeekPlan::take(r),
+            breakaway_throws: bool::take(r),
         }
     }
 }
@@ -588,5 +611,24 @@ mod tests {
             .validate()
             .is_err()
         );
+    }
+
+    /// Trips on the comparison inverted, u_c left out of it, or a threshold that takes in the
+    /// heavy, gliding sleds: the identified models of the families' plants whose breakaway threw
+    /// them past the target (b·u_c 0.25–0.77 quantum per sample) throw, the heavy ones (under
+    /// 0.09) and the frictionless do not (`BENCHMARKS.md`, "The holding error ≤ 1 quantum").
+    #[test]
+    fn a_light_sticky_model_throws_and_a_heavy_one_does_not() {
+        let m = |a: f32, b: f32| VelocityModel {
+            a,
+            b,
+            coulomb_fs: 0.0,
+        };
+        // Seed 1 plant 114 (m1.76, c1.64): b·u_c ≈ 0.25.
+        assert!(breakaway_throws(m(0.934, 38.95), 0.0065));
+        // Seed 7 plant 1 (m5.88, c0.12): b·u_c ≈ 0.063.
+        assert!(!breakaway_throws(m(0.987, 7.04), 0.009));
+        assert!(!breakaway_throws(m(0.7, 60.0), 0.0), "frictionless");
+        assert!(!breakaway_throws(m(0.7, 60.0), -0.01), "a negative level");
     }
 }

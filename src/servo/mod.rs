@@ -442,11 +442,11 @@ impl ServoDesign {
     }
 }
 
-/// A buffer size that holds the words of any [`ServoDesign`]: at most 278 (3 of framing, the
+/// A buffer size that holds the words of any [`ServoDesign`]: at most 279 (3 of framing, the
 /// velocity identifier with a stuck-sensor check and a pole radius, the servo's settings, safety
 /// layer and power-on calibration, the controller with both maps and time-optimal seeks;
 /// `host-tests/tests/integration/sled_loop.rs` counts them).
-pub const SERVO_WORDS_MAX: usize = 278;
+pub const SERVO_WORDS_MAX: usize = 279;
 
 impl<C: Controller, I: Identifier> ServoConfig<C, I> {
     /// Composes a servo from built parts: any controller on any identifier, with the servo's own

@@ -8,9 +8,9 @@
 //! |---|---|---|---|
 //! | 0 pulses and 0 unsettled seeks on ≥ 99 % of plants | 99.0 % | 99.5 % | ≥ 98.5 % (the floor over seeds 1–7, below) |
 //! | median settling ≤ 0.7× baseline on ≥ 90 % of plants | 99.0 % | 97.5 % | ≥ 95 % |
-//! | identified no worse than frozen on every plant | 2 plants > 1.02× (1.065, 1.03) | 0 | ≤ 5 (target not met) |
+//! | identified no worse than frozen on every plant | 2 plants > 1.02× (1.065, 1.045) | 0 | ≤ 5 (target not met) |
 //! | ≥ 20 % faster than frozen where the prior is > 30 % off | 81.5 % of 195 | 85.2 % of 196 | ≥ 75 % (target: all) |
-//! | holding error ≤ 1 quantum | true ≤ 1.36, 0 plants ≥ 1.5 (read ≤ 2); 6 plants over 1 | 1.18, 0; 2 | ≤ 12 plants per family over 1, ≤ 1 at 1.5 or more, none ≥ 2 (target not met) |
+//! | holding error ≤ 1 quantum | true ≤ 1.33, 0 plants ≥ 1.5 (read ≤ 2); 4 plants over 1 | 0.98, 0; 0 | ≤ 5 plants per family over 1, ≤ 1 at 1.5 or more, none ≥ 2 (target not met) |
 //! | friction identified shortens settling on high-friction plants | 0.984× linear-only | 0.985× | < 1 |
 //! | no false safe stop (issue 18), 4.3·10⁷ servo samples per family | 0 | 0 | 0, every variant (1 on seed 7's linear-only variant, plant 24, before the runaway test required |e| itself to grow); the family's slow end in its own test below (before the fallbacks' recovery: stops on seeds 9 and 10 of 1–16) |
 //!
@@ -30,11 +30,20 @@
 //! holding error", "A kick's return" and "A resting sled's flicker"; measured 2026-11-28, seeds
 //! 1, 7, 2, 3, 4, 5, 6): plants over 1 quantum 6, 2, 4, 9, 3, 4, 3 (before: 193–198 on every
 //! seed), the largest 1.36, 1.18, 1.34, 1.40, 1.27, 1.34, 1.36. Asserted: at most 12 per family over 1 quantum (the largest
-//! count over the seven families and a margin of spread; without the rule ≈ 195 trip it). The target (≤ 1 quantum)
-//! is still not met: a sticking sled's fine step breaks it away past the target cell, and it is
-//! held one cell off once both are spent (`BENCHMARKS.md`, "The holding error ≤ 1 quantum").
+//! count over the seven families and a margin of spread; without the rule ≈ 195 trip it). Since
+//! a sticking sled's fine steps are pulsed once one has thrown it past the target
+//! (`control::scheduled::rest`, "A sticking sled's breakaway"; measured 2026-12-07 with
+//! `sledid control-family --passes settling`, seeds 1, 7, 2, 3, 4, 5, 6): 4, 0, 3, 4, 2, 1, 2
+//! plants over 1 quantum (before it, the same day: 6, 2, 4, 9, 3, 4, 3), the largest 1.33,
+//! 0.98, 1.20, 1.23, 1.27, 1.29, 1.36. Asserted: at most 5 per family (above the largest of the
+//! seven; seed 1's 6 without the pulses trips it). The target (≤ 1 quantum) is still not met:
+//! heavy, nearly frictionless sleds whose fine steps glide a cell past the target both ways
+//! are held one cell off once both are spent (`BENCHMARKS.md`, "The holding error ≤ 1
+//! quantum").
 //!
-//! Clean plants over seeds 1–7: 99.0, 99.5, 99.0, 99.0, 100.0, 100.0, 99.5 % (seeds 1, 7, 2, 3, 5,
+//! Clean plants over seeds 1–7: 99.0, 99.5, 99.0, 99.5, 100.0, 100.0, 99.5 % (seeds 1, 7, 2, 3, 5,
+//! 6, 4; 2026-12-07, with the pulsed fine steps of a sticking sled — seed 3 was 99.0 before them);
+//! 99.0, 99.5, 99.0, 99.0, 100.0, 100.0, 99.5 % (seeds 1, 7, 2, 3, 5,
 //! 6, 4; 2026-11-28, with the fine steps before an off-target Hold, a kick's return and the
 //! two-sample flicker — mean 99.43 %; before them 99.0, 99.0, 98.5, 98.5, 99.5, 99.5, 100.0 %, mean 99.14 %; with the
 //! still sled's flicker rule — before that
@@ -112,7 +121,7 @@ fn the_servo_holds_up_on_the_plant_family() {
             "seed {seed}: {two_off} plants held two cells off"
         );
         assert!(
-            over_one <= 12,
+            over_one <= 5,
             "seed {seed}: {over_one} plants held more than a quantum off"
         );
         assert!(

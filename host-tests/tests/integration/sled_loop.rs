@@ -38,7 +38,7 @@ fn shadow_mode_identifies_from_the_applied_drive() {
 
 /// The configuration words (`sledid::words`) of a design with every optional part: both input
 /// maps, time-optimal seeks, a stuck-sensor check, a pole radius on the velocity model, power-on
-/// calibration. The largest word count (278 with the frame: `SERVO_WORDS_MAX`; 279 while the RLS settings were carried as their `f64` design), decoded into the
+/// calibration. The largest word count (279 with the frame: `SERVO_WORDS_MAX`; 278 before the prior gains carried `breakaway_throws`, 279 while the RLS settings were carried as their `f64` design), decoded into the
 /// configuration `build` gives, and refused by a buffer one word short.
 #[test]
 fn configuration_words_of_a_full_design_round_trip() {
@@ -69,7 +69,7 @@ fn configuration_words_of_a_full_design_round_trip() {
     let built = design.build().expect("the design builds");
     let mut buf = [0u32; SERVO_WORDS_MAX];
     let n = design.to_words(&mut buf).expect("words");
-    assert_eq!(n, 278);
+    assert_eq!(n, 279);
     assert_eq!(n, SERVO_WORDS_MAX);
     assert_eq!(SledServo::from_words(&buf[..n]), Ok(built));
     assert_eq!(

@@ -29,7 +29,10 @@
 //! fast sled with stiction 2–3× its Coulomb level, three quanta and more — while a pulse stops
 //! driving at once and friction stops the sled within a sample or two. Pulsing every still
 //! settle sample, not only fine steps, helped the sticky sleds a little more and cost the
-//! nominal sled's short dwells their pulses (measured in BENCHMARKS.md).
+//! nominal sled's short dwells their pulses (measured in BENCHMARKS.md). The
+//! reference-following servo, which has no seek plan, pulses its fine steps once one of them
+//! has thrown the sled a cell past the target on a model whose breakaway throws
+//! ([`super::placement::breakaway_throws`]; [`rest`], "A sticking sled's breakaway").
 //!
 //! The paper (§3, Fig. 4) shows the baseline's ±1-quantum limit cycle is controller-induced and
 //! that the lens loop takes up the residual error: Hold stops driving the sled inside the band and
@@ -736,12 +739,13 @@ impl ScheduledConfig {
         let g = result
             .gains
             .insert(super::placement::place(m, &self.placement)?);
+        let u_c = if self.identify_friction {
+            compensation_level(result.compensation.as_ref())
+        } else {
+            compensation_level(self.compensation.as_ref())
+        };
+        g.breakaway_throws = super::placement::breakaway_throws(m, u_c);
         if let Some(d) = self.seek {
-            let u_c = if self.identify_friction {
-                compensation_level(result.compensation.as_ref())
-            } else {
-                compensation_level(self.compensation.as_ref())
-            };
             let (alpha, pole) = match source {
                 ModelSource::Identified => (d.alpha, d.velocity_pole),
                 ModelSource::Calibrated => (d.alpha_calibrated, d.velocity_pole_calibrated),
@@ -1166,7 +1170,13 @@ impl ScheduledConfig {
                 .saturating_sub(g.kd_settle.apply(s.v_hat)),
             integrating: true,
             compensate,
-            pulsed: fine && s.time_optimal && s.dy1 == 0 && g.seek.sticky(),
+            pulsed: fine
+                && s.dy1 == 0
+                && if s.time_optimal {
+                    g.seek.sticky()
+                } else {
+                    g.breakaway_throws && state.near.overshot()
+                },
         }
     }
 
@@ -1333,8 +1343,9 @@ struct Terms {
     integrating: bool,
     /// The input compensation applies.
     compensate: bool,
-    /// A fine step on a sticky model, the reading still (time-optimal seeks): the drive is
-    /// applied one sample in [`PULSE_PERIOD`].
+    /// A fine step on a sticky model (time-optimal seeks), or on a throwing model whose fine
+    /// step has overshot (reference-following), the reading still: the drive is applied one
+    /// sample in [`PULSE_PERIOD`].
     pulsed: bool,
 }
 

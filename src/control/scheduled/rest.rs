@@ -18,6 +18,7 @@
 //! fine step:   starts at an edge (at most FINE_STEPS_MAX per seek) from e₀ = e_f rounded to a cell;
 //!              toward: a reading with sgn(e) ≠ sgn(e₀) or |e| ≤ |e₀| − 1 (the integrator restarts)
 //!              over:   the readings span two cells, or FINE_STEP_SAMPLES_MAX samples have passed
+//!              overshot: over with sgn(e) = −sgn(e₀) and |e| ≥ 1 (kept for good: the sled sticks)
 //! ```
 //! After a time-optimal seek the sled stops wherever the braking leaves it, and a cell off is
 //! often near the band's edge although 64 readings stayed inside: there every sled at rest one
@@ -41,6 +42,24 @@
 //! quanta, the clean plants' mean from 99.14 to 99.43 % (BENCHMARKS.md, "The holding error ≤ 1
 //! quantum"). The time-optimal seeks keep their rule: under this one their families' pulses rose
 //! from 1 / 0 to 5 / 8 (seeds 1 / 7) and the nominal sled's median access from 3.4 to 3.6 ms.
+//!
+//! # A sticking sled's breakaway
+//! On a light sled sticking at 2–3× its Coulomb level the ramp that breaks it away holds that
+//! drive for the sample in which the sled starts, before the reading can show it: the sled is
+//! thrown about (s − 1)·b·u_c — two quanta and more (seed 1 plant 47: from 0.7 quantum short of
+//! the target to 1.1 past it and back to 1.2 short, each breakaway at the same drive) — and
+//! after both fine steps it is held a cell off, up to 1.4 quanta from the target. Once a fine
+//! step has ended a cell past the target (`overshot`), on a model whose friction takes at least
+//! 1/8 quantum per sample off its velocity ([`crate::control::placement::breakaway_throws`]),
+//! the reference-following servo's fine steps are pulsed as the time-optimal seeks' are on a
+//! sticky model ([`super`], "Settle of a time-optimal seek"): the drive stops a sample after it
+//! breaks the sled away. On the 200-plant families of seeds 1 / 7 / 2 the plants held more
+//! than a quantum off fell from 6 / 2 / 4 to 4 / 0 / 3, the largest from 1.36 / 1.18 / 1.34 to
+//! 1.33 / 0.98 / 1.20; what remains are heavy, nearly frictionless sleds whose fine steps glide
+//! a cell past both ways (BENCHMARKS.md, "The holding error ≤ 1 quantum"). Pulsing every
+//! reference-following fine step instead pulsed those gliders too (seeds 1 / 7 / 2: 5 / 2 / 5
+//! plants over, one plant with 26 / 58 / 10 limit-cycle pulses), and so did pulsing after any
+//! overshoot (6 / 1 / 6 over; 39 / 47 / 1 pulses).
 //!
 //! A fine step is the settle law's integrator ramping the drive until the sled breaks away. On a
 //! sticking sled that drive is well above the Coulomb level (stiction 2–3×), and driving on until
@@ -113,6 +132,9 @@ pub struct NearTarget {
     fine_from: i32,
     /// Samples since the fine step under way started.
     fine_samples: u16,
+    /// A fine step's breakaway has thrown the sled a cell or more past the target (kept over
+    /// seeks: the sled sticks).
+    overshot: bool,
 }
 
 /// What this sample's readings say.
@@ -146,6 +168,7 @@ impl NearTarget {
             fine_steps: 0,
             fine_from: 0,
             fine_samples: 0,
+            overshot: false,
         }
     }
 
@@ -180,7 +203,10 @@ impl NearTarget {
         if self.hi.abs_diff(self.lo) > QUANTUM {
             (self.lo, self.hi, self.count) = (y, y, 0);
             if self.fine_active {
-                // The fine step moved the sled: it is over.
+                // The fine step moved the sled: it is over — past the target by a cell or more
+                // on a sticking sled.
+                self.overshot |= e.signum() == -self.fine_from.signum()
+                    && u64::from(e.unsigned_abs()) >= QUANTUM;
                 self.end_fine_step();
             }
         } else {
@@ -249,6 +275,11 @@ impl NearTarget {
     /// A fine step is under way.
     pub const fn fine_active(&self) -> bool {
         self.fine_active
+    }
+
+    /// A fine step's breakaway has thrown the sled past the target by a cell or more.
+    pub const fn overshot(&self) -> bool {
+        self.overshot
     }
 }
 
@@ -397,6 +428,34 @@ mod tests {
             !at(&mut idle, 0).fine_arrived,
             "no fine step, nothing flagged"
         );
+    }
+
+    /// Trips on an overshoot taken from the wrong sign (a step that ends short or away counted,
+    /// or one that ends a cell past not), on a step that lands counted, or on the mark forgotten
+    /// at the next seek (it is the sled's stiction, not the seek's).
+    #[test]
+    fn a_fine_step_that_throws_the_sled_past_the_target_marks_it() {
+        let mut n = started(1);
+        assert!(!n.overshot());
+        at(&mut n, -1);
+        assert!(!n.fine_active(), "across the target: over");
+        assert!(n.overshot(), "a cell past the target");
+        n.enter(Q, true);
+        assert!(n.overshot(), "kept over seeks");
+        // From two cells off into the target cell: over, and landed.
+        let mut n = started(2);
+        at(&mut n, 0);
+        assert!(!n.fine_active() && !n.overshot());
+        // Away from the target: over, not past it.
+        let mut n = started(-1);
+        at(&mut n, -3);
+        assert!(!n.fine_active() && !n.overshot());
+        // A fine step that never moves the sled ends on its limit, not past the target.
+        let mut n = started(1);
+        for _ in 0..=FINE_STEP_SAMPLES_MAX {
+            at(&mut n, 1);
+        }
+        assert!(!n.fine_active() && !n.overshot());
     }
 
     /// The start cell is the filtered error rounded, not the last reading: a sled resting a cell
