@@ -278,7 +278,10 @@ fn sub_family(ranges: FamilyRanges, seed: u64, plants: u64) -> [usize; 4] {
 /// Measured 2026-12-07, main before the rules / with them (plants with an unsettled seek or a
 /// pulse, unsettled seeks): light 16 + 19 / 10 + 8 plants, 49 + 37 / 19 + 22 unsettled (seeds
 /// 3 / 4: 19 + 15 / 11 + 12 plants, 49 + 38 / 25 + 27); heavy 68 + 64 / 8 + 4 unsettled (8 + 8 /
-/// 6 + 7 plants). Asserted: light ≤ 26 plants and ≤ 55 unsettled of 200, heavy ≤ 30 unsettled,
+/// 6 + 7 plants). With a fine step pulsed also once one has thrown the sled past the target on
+/// a throwing model (`control::scheduled::rest`, "A sticking sled's breakaway"; 2026-12-07):
+/// light 7 + 8 plants, 14 + 19 unsettled (seeds 3 / 4: 10 + 11, 25 + 25), heavy unchanged.
+/// Asserted (unchanged): light ≤ 26 plants and ≤ 55 unsettled of 200, heavy ≤ 30 unsettled,
 /// no safe stop. Trips on (measured, each rule removed alone): no pulsed fine steps (light 36
 /// plants, 80 unsettled), a Hold one cell off during a fine step (39, 77), coasting damped on the
 /// velocity observer alone (light 62 unsettled; heavy 97).

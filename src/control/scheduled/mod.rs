@@ -29,10 +29,10 @@
 //! fast sled with stiction 2–3× its Coulomb level, three quanta and more — while a pulse stops
 //! driving at once and friction stops the sled within a sample or two. Pulsing every still
 //! settle sample, not only fine steps, helped the sticky sleds a little more and cost the
-//! nominal sled's short dwells their pulses (measured in BENCHMARKS.md). The
-//! reference-following servo, which has no seek plan, pulses its fine steps once one of them
-//! has thrown the sled a cell past the target on a model whose breakaway throws
-//! ([`super::placement::breakaway_throws`]; [`rest`], "A sticking sled's breakaway").
+//! nominal sled's short dwells their pulses (measured in BENCHMARKS.md). In both modes a fine
+//! step is pulsed, too, once one has thrown the sled a cell past the target on a model whose
+//! breakaway throws ([`super::placement::breakaway_throws`]; [`rest`], "A sticking sled's
+//! breakaway"): the sled's stiction, which no model here identifies, shown by the sled itself.
 //!
 //! The paper (§3, Fig. 4) shows the baseline's ±1-quantum limit cycle is controller-induced and
 //! that the lens loop takes up the residual error: Hold stops driving the sled inside the band and
@@ -1172,11 +1172,8 @@ impl ScheduledConfig {
             compensate,
             pulsed: fine
                 && s.dy1 == 0
-                && if s.time_optimal {
-                    g.seek.sticky()
-                } else {
-                    g.breakaway_throws && state.near.overshot()
-                },
+                && ((s.time_optimal && g.seek.sticky())
+                    || (g.breakaway_throws && state.near.overshot())),
         }
     }
 
@@ -1344,8 +1341,8 @@ struct Terms {
     /// The input compensation applies.
     compensate: bool,
     /// A fine step on a sticky model (time-optimal seeks), or on a throwing model whose fine
-    /// step has overshot (reference-following), the reading still: the drive is applied one
-    /// sample in [`PULSE_PERIOD`].
+    /// step has overshot (both modes), the reading still: the drive is applied one sample in
+    /// [`PULSE_PERIOD`].
     pulsed: bool,
 }
 

@@ -51,15 +51,19 @@
 //! after both fine steps it is held a cell off, up to 1.4 quanta from the target. Once a fine
 //! step has ended a cell past the target (`overshot`), on a model whose friction takes at least
 //! 1/8 quantum per sample off its velocity ([`crate::control::placement::breakaway_throws`]),
-//! the reference-following servo's fine steps are pulsed as the time-optimal seeks' are on a
-//! sticky model ([`super`], "Settle of a time-optimal seek"): the drive stops a sample after it
-//! breaks the sled away. On the 200-plant families of seeds 1 / 7 / 2 the plants held more
-//! than a quantum off fell from 6 / 2 / 4 to 4 / 0 / 3, the largest from 1.36 / 1.18 / 1.34 to
-//! 1.33 / 0.98 / 1.20; what remains are heavy, nearly frictionless sleds whose fine steps glide
-//! a cell past both ways (BENCHMARKS.md, "The holding error ≤ 1 quantum"). Pulsing every
+//! later fine steps are pulsed as the time-optimal seeks' are on a sticky model ([`super`],
+//! "Settle of a time-optimal seek"): the drive stops a sample after it breaks the sled away.
+//! In the reference-following servo, on the 200-plant families of seeds 1 / 7 / 2, the plants
+//! held more than a quantum off fell from 6 / 2 / 4 to 4 / 0 / 3, the largest from 1.36 / 1.18
+//! / 1.34 to 1.33 / 0.98 / 1.20; what remains are heavy, nearly frictionless sleds whose fine
+//! steps glide a cell past both ways (BENCHMARKS.md, "The holding error ≤ 1 quantum"). In the
+//! time-optimal seeks it catches sticking sleds whose seek plan is not `sticky` (the light,
+//! sticky sub-family of seeds 1–4: failing plants 10 / 8 / 11 / 12 → 7 / 8 / 10 / 11 of 100;
+//! BENCHMARKS.md, "Settle after a time-optimal seek"). Pulsing every
 //! reference-following fine step instead pulsed those gliders too (seeds 1 / 7 / 2: 5 / 2 / 5
 //! plants over, one plant with 26 / 58 / 10 limit-cycle pulses), and so did pulsing after any
-//! overshoot (6 / 1 / 6 over; 39 / 47 / 1 pulses).
+//! overshoot (6 / 1 / 6 over; 39 / 47 / 1 pulses) — the time-optimal seeks' `sticky` plan
+//! (b·u_c > 2·v_arrive) does not separate the two kinds either.
 //!
 //! A fine step is the settle law's integrator ramping the drive until the sled breaks away. On a
 //! sticking sled that drive is well above the Coulomb level (stiction 2–3×), and driving on until
