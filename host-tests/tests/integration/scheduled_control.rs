@@ -339,6 +339,44 @@ fn an_accepted_redesign_compensates_the_identified_friction() {
     assert_eq!(level(&state), Some(prior));
 }
 
+/// The prior's gains and every redesign's carry whether a breakaway throws the model's sled
+/// (`control::placement::breakaway_throws`: b·u_c ≥ 1/8 quantum per sample; the pulsed fine
+/// steps of `control::scheduled::rest`, "A sticking sled's breakaway"). Trips on the prior's
+/// gains built without the flag (it was so before 2026-12-07: frozen servos never pulsed), or a
+/// redesign that keeps the previous model's flag or leaves the identified Coulomb level out.
+#[test]
+fn the_prior_and_every_redesign_carry_whether_a_breakaway_throws() {
+    let design = scheduled_design(&TwinParams::default()).unwrap();
+    let config = design.build().unwrap();
+    let prior = config.prior_gains().expect("the twin's design has a prior");
+    // The nominal sled: b·u_c ≈ 0.15 quantum per sample.
+    assert!(prior.breakaway_throws, "{prior:?}");
+    let mut state = Controller::new_state(&config);
+    assert!(state.gains().breakaway_throws);
+    let good = ModelReport {
+        status: Status::UPDATED,
+        eps: SignalI16F16::from_f64(0.1).unwrap(),
+    };
+    let p = PositionI48F16::from_counts(0);
+    let mut th = theta(0.83, 20.0);
+    // u_c = 0.002: b·u_c = 0.04 — a gliding sled.
+    th[2] = ParamI12F20::from_f64(20.0 * 0.002).unwrap();
+    config.step_law(&mut state, p, p, &good);
+    assert!(matches!(
+        redesign(&config, &mut state, &th),
+        Redesign::Applied(_)
+    ));
+    assert!(!state.gains().breakaway_throws);
+    // u_c = 0.02: b·u_c = 0.4 — a sticking one.
+    th[2] = ParamI12F20::from_f64(20.0 * 0.02).unwrap();
+    config.step_law(&mut state, p, p, &good);
+    assert!(matches!(
+        redesign(&config, &mut state, &th),
+        Redesign::Applied(_)
+    ));
+    assert!(state.gains().breakaway_throws);
+}
+
 /// Without a prior the baseline PID drives (FALLBACK) until a model is accepted, exactly as the
 /// baseline alone would; the first accepted redesign hands over to the law, continuing from the
 /// baseline's last output (the integrator takes up the difference).

@@ -286,6 +286,10 @@ impl ScheduledDesign {
             .map_err(|_| ConfigError::InitialModel(a))?;
             let mut gains = super::placement::place(model, &self.prior_placement)
                 .map_err(|_| ConfigError::InitialModel(b))?;
+            gains.breakaway_throws = super::placement::breakaway_throws(
+                model,
+                compensation_level(self.compensation.as_ref()),
+            );
             if let Some(d) = seek
                 && !config.seek_plan_into(
                     &mut gains.seek,
