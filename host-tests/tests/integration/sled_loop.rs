@@ -77,3 +77,20 @@ fn configuration_words_of_a_full_design_round_trip() {
         Err(ConfigError::Words { at: n - 1 })
     );
 }
+
+/// The servo's state is copied whole on the sample that adopts calibration's answer, the
+/// interrupt's worst case on the M0+ (`BENCHMARKS.md`, "Cycles of the interrupt": 10,552 of
+/// its 10,920 cycles, 2026-12-07). A field added to the state shows there first, and not only
+/// by its size: a one-byte `bool` added to the near-target bookkeeping sent that copy through
+/// the byte-wise `memcpy` and took the worst tick to 14,758 cycles with the mean unchanged, and
+/// nothing else in the test command noticed. This size is the tripwire: when it changes, run
+/// `cargo xtask cost firmware`, check the worst tick against both budgets and record it (with
+/// this figure) in BENCHMARKS.md. 2,616 B measured with the worst tick above (the `bool`
+/// version: 2,624 B). Trips on any change of the state's size on the host (not on a field that
+/// fits existing padding: the size is a tripwire, the emulator's count is the measurement).
+#[test]
+fn the_servo_state_keeps_the_layout_its_worst_tick_was_measured_with() {
+    let size = core::mem::size_of::<sledid::servo::SledServoState>();
+    println!("SledServoState: {size} B on the host");
+    assert_eq!(size, 2616, "re-measure the firmware's worst tick (doc)");
+}
