@@ -40,9 +40,9 @@ impl ControlFlags {
     /// sled's return after a kick — not motion; nothing damps (`scheduled::rest`, "A resting
     /// sled's flicker", "A kick's return").
     pub const FLICKER: Self = Self(1 << 13);
-    /// Settle after a time-optimal seek, a fine step on a sticky model: an off-sample of the
-    /// pulsed drive — nothing drives, the integrator runs on (`scheduled`, "Settle of a
-    /// time-optimal seek").
+    /// A pulsed fine step's off-sample (a sticky seek plan, or a sled whose breakaway has
+    /// thrown it past the target): nothing drives, the integrator runs on (`scheduled`,
+    /// "Settle of a time-optimal seek"; `scheduled::rest`, "A sticking sled's breakaway").
     pub const PULSE_OFF: Self = Self(1 << 14);
 
     /// All flags with their names, in bit order.

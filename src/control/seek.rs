@@ -896,7 +896,7 @@ mod tests {
     fn coulomb_decay_slows_the_model_sled_to_rest_and_not_past() {
         // b = 10 quanta per sample per full scale, u_c = 0.02: 0.2 quantum per sample per call.
         let plan = SeekPlan::design(0.9, 10.0, 0.02, 1.0, 0.7, 0.0).unwrap();
-        let step = (plan.k_b.apply(plan.u_coulomb) >> 16) as f64 / 65_536.0;
+        let step = plan.coulomb_step() as f64 / 65_536.0;
         assert!((step - 0.2).abs() < 1e-3, "{step}");
         for sign in [1i32, -1] {
             let mut obs = SeekObserver::new();

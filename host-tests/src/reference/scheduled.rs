@@ -417,23 +417,18 @@ impl ScheduledF64 {
                 // Damping past a dead zone of l/2 quanta per sample (half what one flicker of
                 // the reading moves v̂ by) — after a time-optimal seek, of the seek observer's v̂
                 // past v_arrive; a still sled's flicker is not motion.
+                let reading = past(self.v_hat, g.obs_l / 2.0);
                 let moving = match (mode, time_optimal, plan.as_ref()) {
                     (LawMode::CoastFlicker, _, _) => 0.0,
                     (_, true, Some(p)) => {
-                        let (v, w) = (self.seek_observer.v, p.v_arrive());
-                        let gliding = v - v.clamp(-w, w);
-                        let l = g.obs_l / 2.0;
-                        let moving = self.v_hat - self.v_hat.clamp(-l, l);
-                        if gliding.abs() > moving.abs() {
+                        let gliding = past(self.seek_observer.v, p.v_arrive());
+                        if gliding.abs() > reading.abs() {
                             gliding
                         } else {
-                            moving
+                            reading
                         }
                     }
-                    _ => {
-                        let w = g.obs_l / 2.0;
-                        self.v_hat - self.v_hat.clamp(-w, w)
-                    }
+                    _ => reading,
                 };
                 let v = -g.kd_settle * moving;
                 let u = v.clamp(-u_max, u_max);
@@ -513,4 +508,9 @@ fn inverse_of(map: Option<(f64, f64, f64)>, v: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// `v` less a dead zone of ±`w` (≥ 0).
+fn past(v: f64, w: f64) -> f64 {
+    v - v.clamp(-w, w)
 }

@@ -612,13 +612,7 @@ mod tests {
     /// is not taken once the step is over.
     #[test]
     fn a_time_optimal_seek_holds_one_cell_off_only_between_fine_steps() {
-        let mut n = NearTarget::new();
-        n.enter(-Q, true);
-        let mut v = at(&mut n, 1);
-        for _ in 0..8 {
-            v = at(&mut n, 1);
-        }
-        assert!(n.fine_step(&v));
+        let mut n = started(1);
         for k in 0..FINE_STEP_SAMPLES_MAX {
             let v = at(&mut n, 1);
             assert!(!v.holdable, "{k}: {v:?}");
