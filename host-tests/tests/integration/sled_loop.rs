@@ -83,7 +83,8 @@ fn configuration_words_of_a_full_design_round_trip() {
 /// its 10,920 cycles, 2026-12-07). A field added to the state shows there first, and not only
 /// by its size: a one-byte `bool` added to the near-target bookkeeping sent that copy through
 /// the byte-wise `memcpy` and took the worst tick to 14,758 cycles with the mean unchanged, and
-/// nothing else in the test command noticed. This size is the tripwire: when it changes, run
+/// nothing else in the test command noticed (the PIL runs now check the longest handler against
+/// the budget: `firmware_qemu::interrupt_budget`). This size is the tripwire: when it changes, run
 /// `cargo xtask cost firmware`, check the worst tick against both budgets and record it (with
 /// this figure) in BENCHMARKS.md. 2,616 B measured with the worst tick above (the `bool`
 /// version: 2,624 B). Trips on any change of the state's size on the host (not on a field that
