@@ -1,8 +1,12 @@
 //! Fixed-point estimators against their float64 references on closed-loop, quantised data.
 //!
 //! Bounds (see `src/rls.rs`, "Accuracy"):
-//! - well-posed problems (ARX on any data; OE on adequately excited data): θ within 1e-3 relative of
-//!   float64 at every sample after the first 200, simulation RMS within 1 %;
+//! - well-posed problems (ARX on any data; second-order OE on adequately excited data): θ within
+//!   1e-3 relative of float64 at every sample after the first 200, simulation RMS within 1 %;
+//! - first-order OE on the closed-loop records of seeds 1–24: the criterion below (1e-3 or 3× the
+//!   problem's own sensitivity) on all but a few of the 96 cases — many of these fits are
+//!   ill-conditioned, and a single seed passed by its seed
+//!   (`first_order_output_error_is_within_the_problems_own_sensitivity_over_seeds`);
 //! - gated estimators (dead zone) are compared with the reference locked to the fixed-point path's
 //!   gate decisions, so a flip of ε across the threshold by one rounding does not count as arithmetic
 //!   error (the flips are counted and printed);
@@ -135,27 +139,82 @@ fn arx_meets_1e_3_on_every_setting() {
     }
 }
 
+/// First-order OE (pseudo-linear and prediction-error, λ = 1 and windup-guarded with a dead zone,
+/// the guarded ones with the reference locked to the fixed point's gate decisions) on the
+/// closed-loop records of seeds 1–24: per case θ within 1·10⁻³ of float64 or within 3× the
+/// problem's own sensitivity to the signal format ([`signal_grid_sensitivity`]), and the
+/// simulation RMS within 1 % (or 3× its sensitivity), on all but [`OE_CASES_BEYOND_MAX`] of the
+/// 96 cases; no case saturated.
+///
+/// Until 2026-12-08 this was seed 7 alone against 1·10⁻³, and it passed by its seed: over seeds
+/// 1–24, 25 of the 96 cases are over 1·10⁻³ (a stability projection's trial steps kept at θ's
+/// full precision, branch `projection-precision`: 27, and seed 7's guarded prediction-error case
+/// itself 4.5·10⁻⁴ → 3.5·10⁻³). In 23 of those 25 the float64 reference is as far from itself
+/// with its signals on the I16F16 grid (e.g. seed 11, prediction error, λ = 1: 5.1 against 5.1;
+/// seed 3: 2.3 against 2.3): the first-order OE fits of these records are ill-conditioned — the
+/// filter's and the projection's decisions flip on the last bits of the signals — and the fixed
+/// point's distance is that, not its arithmetic. Measured (`cargo test -p sledid-host --test
+/// integration rls_vs_f64::first_order -- --nocapture` prints every case beyond 1·10⁻³): 2 of 96
+/// beyond the criterion (seed 18 guarded prediction error, 0.13 against 3 × 1.6·10⁻²; seed 24
+/// prediction error λ = 1, 1.6·10⁻³ against 3 × 3.0·10⁻⁴, 5,473 gate decisions apart); with the
+/// projection at full precision 1 of 96. Trips on a kernel with a systematic error, which moves
+/// most cases at once — γ₀ = 1/(λ·4^σ) off by a factor 2 in the column chain: 62 of 96 beyond
+/// (measured; the U update's truncated high word, which `unit_sweep`'s N = 4 records catch, leaves
+/// N = 2 at 2 of 96) — not on a 10⁻⁵ change of its rounding.
 #[test]
-fn first_order_output_error_meets_1e_3() {
-    let rec = closed_loop(&first_order(0.02));
-    let (y, u) = (differenced(&rec.y), differenced(&rec.u));
-    for s in [
-        Structure::OutputErrorPseudoLinear,
-        Structure::OutputErrorPredictionError,
-    ] {
-        let mut d = LinearDesign::<2>::new(s, 1, 1);
-        d.rls = plain();
-        well_posed(&format!("{s:?} n=2 λ=1"), d, &y, &u, Decisions::Free);
-        d.rls = windup_guarded();
-        well_posed(
-            &format!("{s:?} n=2 guarded (locked)"),
-            d,
-            &y,
-            &u,
-            Decisions::Locked,
-        );
+fn first_order_output_error_is_within_the_problems_own_sensitivity_over_seeds() {
+    let mut beyond = Vec::new();
+    for seed in 1..=24u64 {
+        let mut spec = first_order(0.02);
+        spec.seed = seed;
+        let rec = closed_loop(&spec);
+        let (y, u) = (differenced(&rec.y), differenced(&rec.u));
+        for s in [
+            Structure::OutputErrorPseudoLinear,
+            Structure::OutputErrorPredictionError,
+        ] {
+            for (guard, rls, dec) in [
+                ("λ=1", plain(), Decisions::Free),
+                ("guarded (locked)", windup_guarded(), Decisions::Locked),
+            ] {
+                let mut d = LinearDesign::<2>::new(s, 1, 1);
+                d.rls = rls;
+                let c = compare_linear(&d, &y, &u, 200, dec);
+                let sens = signal_grid_sensitivity(&d, &y, &u, 200);
+                let rms_rel = (c.sim_rms_fx - c.sim_rms_f64).abs() / c.sim_rms_f64.max(1e-12);
+                assert_eq!(c.saturated, 0, "seed {seed} {s:?} {guard}: saturation");
+                let theta_ok =
+                    c.max_rel_theta_err < 1e-3 || c.max_rel_theta_err < 3.0 * sens.max_rel_theta;
+                let rms_ok = rms_rel < 0.01f64.max(3.0 * sens.sim_rms_rel);
+                if c.max_rel_theta_err >= 1e-3 || !rms_ok {
+                    println!(
+                        "seed {seed} {s:?} {guard}: θ {:.2e} (the problem's own {:.2e}), sim RMS \
+                         {rms_rel:.1e} (own {:.1e}), {} decisions apart{}",
+                        c.max_rel_theta_err,
+                        sens.max_rel_theta,
+                        sens.sim_rms_rel,
+                        c.decision_mismatches,
+                        if theta_ok && rms_ok { "" } else { ": BEYOND" }
+                    );
+                }
+                if !(theta_ok && rms_ok) {
+                    beyond.push((seed, s, guard));
+                }
+            }
+        }
     }
+    println!("{} of 96 cases beyond the criterion", beyond.len());
+    assert!(
+        beyond.len() <= OE_CASES_BEYOND_MAX,
+        "{} of 96 first-order OE cases beyond 1e-3 and 3× the problem's own sensitivity: {beyond:?}",
+        beyond.len()
+    );
 }
+
+/// Cases of the 96 in `first_order_output_error_is_within_the_problems_own_sensitivity_over_seeds`
+/// allowed beyond its criterion: measured 2 (main) and 1 (the projection at full precision), one
+/// more so that a change of the rounding's last bit does not flip the test.
+const OE_CASES_BEYOND_MAX: usize = 3;
 
 #[test]
 fn second_order_output_error_meets_1e_3_when_excited() {
