@@ -273,6 +273,7 @@ impl<const N: usize> LinearConfig<N> {
         }
         let mut sat = false;
         let theta_old = *st.rls.theta();
+        let theta_old_i16f48 = *st.rls.theta_i16f48();
         let y_hat = RlsConfig::predict(&theta_old, &phi, &mut sat);
         let eps = y.saturating_sub(y_hat);
         let psi = match self.structure {
@@ -280,7 +281,7 @@ impl<const N: usize> LinearConfig<N> {
             Structure::OutputErrorPredictionError => self.filtered_gradient(st, &phi, &theta_old),
         };
         let mut status = self.rls.update(&mut st.rls, &psi, eps);
-        status |= self.project(st, &theta_old);
+        status |= self.project(st, &theta_old_i16f48);
         if self.coulomb {
             status |= project_friction(&mut st.rls);
         }
@@ -319,9 +320,9 @@ impl<const N: usize> LinearConfig<N> {
     }
 
     /// Keeps the denominator inside the allowed pole region ([`project_denominator`]).
-    fn project(&self, st: &mut LinearState<N>, theta_old: &[ParamI12F20; N]) -> Status {
+    fn project(&self, st: &mut LinearState<N>, theta_old_i16f48: &[i64; N]) -> Status {
         match self.radius {
-            Some(radius) => project_denominator(radius, self.na, &mut st.rls, theta_old),
+            Some(radius) => project_denominator(radius, self.na, &mut st.rls, theta_old_i16f48),
             None => Status::NONE,
         }
     }

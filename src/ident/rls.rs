@@ -371,8 +371,8 @@ impl<const N: usize> RlsState<N> {
         &self.theta_i16f48
     }
 
-    /// Overwrites θ (used by the stability projection of the model structures). Entries equal to
-    /// the current read-out keep their I16F48 precision; the others are set exactly.
+    /// Overwrites θ (the friction term's projection of the linear models). Entries equal to the
+    /// current read-out keep their I16F48 precision; the others are set exactly.
     pub fn set_theta(&mut self, theta: [ParamI12F20; N]) {
         for ((hi, out), new) in self
             .theta_i16f48
@@ -385,6 +385,22 @@ impl<const N: usize> RlsState<N> {
                 *out = *new;
             }
         }
+    }
+
+    /// Overwrites θ at full precision, raw I16F48 (the stability projection's trial steps), its
+    /// read-out rounded to I12F20; true when a read-out saturated.
+    pub fn set_theta_i16f48(&mut self, theta: [i64; N]) -> bool {
+        let mut sat = false;
+        for ((hi, out), new) in self
+            .theta_i16f48
+            .iter_mut()
+            .zip(self.theta.iter_mut())
+            .zip(theta.iter())
+        {
+            *hi = *new;
+            *out = ParamI12F20::from_raw(theta_out(*new, &mut sat));
+        }
+        sat
     }
 
     /// The U factor in I8F24, column-major: `u[j][i]` = Uᵢⱼ for i < j (the rest is zero; the
@@ -764,6 +780,12 @@ impl RlsConfig {
             status
         }
     }
+}
+
+/// θ's I12F20 read-out of a raw I16F48 value (the stability projection's trial steps):
+/// round(θ / 2^28), saturating (flagged).
+pub fn theta_read_out(x: i64, sat: &mut bool) -> ParamI12F20 {
+    ParamI12F20::from_raw(theta_out(x, sat))
 }
 
 /// θ's I12F20 read-out: round(θ_I16F48 / 2^28), saturating (flagged), from the two words.

@@ -217,6 +217,7 @@ impl<const N: usize> NonlinearConfig<N> {
     /// One sample: conditioned output y(t) and input u(t). Never panics.
     pub fn step(&self, st: &mut NonlinearState<N>, y: SignalI16F16, u: SignalI16F16) -> Estimate {
         let theta_old = *st.rls.theta();
+        let theta_old_i16f48 = *st.rls.theta_i16f48();
         let ev = structure::evaluate(self.structure, &theta_old, &st.lags);
         let mut sat = ev.saturated;
         let (coeffs, limited) = self.filter_coefficients(&theta_old, ev.ds_dlag_i12f20);
@@ -242,7 +243,12 @@ impl<const N: usize> NonlinearConfig<N> {
             &mut sat,
         ));
         let mut status = self.rls.update(&mut st.rls, &psi, eps);
-        status |= project_denominator(self.radius, self.structure.na(), &mut st.rls, &theta_old);
+        status |= project_denominator(
+            self.radius,
+            self.structure.na(),
+            &mut st.rls,
+            &theta_old_i16f48,
+        );
         st.psi_s_lag.swap(0, 1);
         if let Some(first) = st.psi_s_lag.first_mut() {
             *first = psi_s;
