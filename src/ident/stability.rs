@@ -12,13 +12,9 @@
 //!
 //! # Accuracy
 //! Until 2026-12-08 the trial steps were floored in I12F20 and written back through the read-out,
-//! dropping θ's low 28 bits at every projected sample. Measured against the float64 reference
-//! (`cargo test -p sledid-host --test integration unit_sweep:: -- --nocapture`, and a scratch
-//! copy over the twin's seeds): EMPS ARX(1,1) (its pole near 1, projected often) worst over 15
-//! position units 4.08·10⁻⁴ → 8.3·10⁻⁵; the twin's closed-loop records with the projection
-//! (seeds 1–16 × the nominal unit and ×0.7) over 1·10⁻³ in 22 → 15 of 32 cases — the rest are
-//! the projection's yes/no decisions at the integrating sled's pole on the boundary
-//! (`host-tests/tests/integration/unit_sweep.rs`, "The twin's records").
+//! dropping θ's low 28 bits at every projected sample; what keeping them changed against the
+//! float64 reference is measured in [BENCHMARKS.md](../../BENCHMARKS.md) (issue 24's seventh
+//! pass, "Scale invariance on the twin's records").
 
 #![deny(clippy::float_arithmetic)]
 
@@ -146,6 +142,29 @@ mod tests {
 
     fn p(x: f64) -> ParamI12F20 {
         ParamI12F20::from_f64(x).unwrap()
+    }
+
+    /// A projected step is taken on θ's I16F48: θ(t−1) = 0.5 + 2⁻⁴⁰, an update to 1.5 leaves
+    /// |z| ≤ 1, the first halving lands on 1 + 2⁻⁴¹ (read out as 1.0: inside) and keeps those low
+    /// bits. Trips on steps taken on the I12F20 read-out (θ = 1.0 exactly, as before 2026-12-08)
+    /// or floored; the other parameter moves by the same halving.
+    #[test]
+    fn a_projected_step_keeps_the_low_bits_of_theta() {
+        use crate::ident::rls::RlsDesign;
+        let cfg = RlsDesign::default().build().unwrap();
+        let mut st = RlsState::<2>::new(&cfg, [ParamI12F20::ZERO; 2]);
+        let one = 1i64 << 48;
+        let old = [one / 2 + 256, one / 4 + 3];
+        st.set_theta_i16f48([3 * one / 2, one / 4 + 4]);
+        let r = PoleRadius::from_margin(0.0).unwrap();
+        assert_eq!(project_denominator(r, 1, &mut st, &old), Status::PROJECTED);
+        // Steps 2⁴⁸ − 256 and 1, halved and rounded half up: 2⁴⁷ − 128 and 1.
+        assert_eq!(*st.theta_i16f48(), [one + 128, one / 4 + 4]);
+        assert_eq!(st.theta()[0], p(1.0));
+        // An update that stays inside is left as it is.
+        st.set_theta_i16f48([one / 2, 7]);
+        assert_eq!(project_denominator(r, 1, &mut st, &old), Status::NONE);
+        assert_eq!(*st.theta_i16f48(), [one / 2, 7]);
     }
 
     #[test]
