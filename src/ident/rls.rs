@@ -784,7 +784,7 @@ impl RlsConfig {
 
 /// θ's I12F20 read-out of a raw I16F48 value (the stability projection's trial steps):
 /// round(θ / 2^28), saturating (flagged).
-pub fn theta_read_out(x: i64, sat: &mut bool) -> ParamI12F20 {
+pub(crate) fn theta_read_out(x: i64, sat: &mut bool) -> ParamI12F20 {
     ParamI12F20::from_raw(theta_out(x, sat))
 }
 
