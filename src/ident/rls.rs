@@ -98,7 +98,9 @@
 //! Against a float64 UD update on the same quantised data: `host-tests/tests/integration/rls_vs_f64.rs`
 //! (simulated closed-loop plants), `emps_vs_f64.rs` (the EMPS recording) and `unit_sweep.rs`
 //! (position units 2⁻¹⁰…2¹⁰ × nominal and each recording's own quantum, EMPS ARX(1,1)/(2,2),
-//! Silverbox and twin records: θ within 1·10⁻³ of float64). Measured figures and cost:
+//! Silverbox, and the twin's closed-loop records without the stability projection, whose
+//! decisions at their z = 1 pole are not the kernel's: θ within 1·10⁻³ of float64). Measured
+//! figures and cost:
 //! [BENCHMARKS.md](../../BENCHMARKS.md) (kernel section).
 
 #![deny(clippy::float_arithmetic)]
